@@ -1,0 +1,131 @@
+"""A grounded scenario: narrative, entities, the FSM that must play out, solved parameters.
+
+The FSM is declarative. Abstract states are conjunctions of predicate calls from a fixed,
+documented library (``regen.verify.predicates``); the model picks and orders them, and nothing
+it writes is ever executed.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field, model_validator
+
+from regen.core.base import Model
+from regen.core.behavior import Behavior
+
+Scalar = float | int | str | bool
+
+
+class PredicateCall(Model):
+    """One predicate of the library applied to actors, e.g. ``behind(ambulance1, ego)``."""
+
+    name: str
+    args: list[str] = Field(default_factory=list)  # actor names
+    params: dict[str, Scalar] = Field(default_factory=dict)  # e.g. {"distance": 10.0}
+    negate: bool = False
+
+    def __str__(self) -> str:
+        extra = ", ".join(f"{k}={v}" for k, v in self.params.items())
+        inner = ", ".join(self.args + ([extra] if extra else []))
+        return f"{'not ' if self.negate else ''}{self.name}({inner})"
+
+
+class AbstractState(Model):
+    """A named abstract state of one actor: true at a step when all its predicates hold."""
+
+    name: str
+    actor: str
+    all_of: list[PredicateCall] = Field(min_length=1)
+
+
+class StateRef(Model):
+    actor: str
+    state: str
+
+
+class Stage(Model):
+    """All conditions of a stage must hold at the same simulation step."""
+
+    conditions: list[StateRef] = Field(min_length=1)
+
+
+class FSM(Model):
+    """Ordered stages; the last stage is the accepting one (paper: F)."""
+
+    states: list[AbstractState] = Field(default_factory=list)
+    stages: list[Stage] = Field(default_factory=list)
+
+    @model_validator(mode="after")
+    def _refs_known(self) -> FSM:
+        known = {(s.actor, s.name) for s in self.states}
+        for i, st in enumerate(self.stages):
+            for c in st.conditions:
+                if (c.actor, c.state) not in known:
+                    raise ValueError(f"stage {i + 1} names the state {c.state!r} of {c.actor!r}, "
+                                     "which no abstract state defines")
+        return self
+
+    def state(self, actor: str, name: str) -> AbstractState:
+        for s in self.states:
+            if s.actor == actor and s.name == name:
+                return s
+        raise KeyError((actor, name))
+
+    def as_tuples(self) -> list[list[tuple[str, str]]]:
+        """The paper's ``fsm = [[(actor, state), ...], ...]`` form."""
+        return [[(c.actor, c.state) for c in st.conditions] for st in self.stages]
+
+
+class Entity(Model):
+    """An actor or object of the scenario, with its properties and motion primitive."""
+
+    name: str  # unique in the scenario, e.g. 'ambulance1'; the ego is 'ego'
+    asset: str  # asset database id, e.g. 'ambulance'
+    kind: Literal["agent", "object", "ego", "robot"] = "agent"
+    properties: dict[str, str] = Field(default_factory=dict)  # e.g. {'siren': 'on'}
+    behavior: str | None = None  # motion primitive id, e.g. 'drive_forward'
+    behavior_params: dict[str, Scalar] = Field(default_factory=dict)
+
+
+class SolverReport(Model):
+    status: Literal["optimal", "feasible", "infeasible", "model_invalid", "unknown", "not_run"] = "not_run"
+    wall_time: float = 0.0  # [s]
+    conflicts: list[str] = Field(default_factory=list)  # constraints named in an infeasible core
+    relaxations: list[str] = Field(default_factory=list)  # what grounding relaxed, in words
+
+
+class Scenario(Model):
+    id: str
+    domain: Literal["driving", "manipulation"]
+    behavior: Behavior
+    causal_graph: list[str]  # event labels, root cause first, behavior last
+    narrative: str
+    entities: list[Entity]
+    fsm: FSM
+    parameters: dict[str, dict[str, Scalar]] = Field(default_factory=dict)  # per entity, solved
+    world: dict[str, Scalar] = Field(default_factory=dict)  # map, duration [s], step [s], seed ...
+    solver: SolverReport = Field(default_factory=SolverReport)
+
+    @model_validator(mode="after")
+    def _actors_known(self) -> Scenario:
+        names = [e.name for e in self.entities]
+        if len(set(names)) != len(names):
+            raise ValueError(f"entity names repeat: {names}")
+        known = set(names)
+        for s in self.fsm.states:
+            if s.actor not in known:
+                raise ValueError(f"abstract state {s.name!r} belongs to unknown actor {s.actor!r}; "
+                                 f"known actors: {sorted(known)}")
+            for p in s.all_of:
+                for a in p.args:
+                    if a not in known:
+                        raise ValueError(f"predicate {p} in state {s.name!r} names unknown actor "
+                                         f"{a!r}; known actors: {sorted(known)}")
+        return self
+
+    def entity(self, name: str) -> Entity:
+        for e in self.entities:
+            if e.name == name:
+                return e
+        raise KeyError(name)
