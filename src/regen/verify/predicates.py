@@ -66,7 +66,7 @@ def _load(domain: str | None) -> None:
             try:
                 importlib.import_module(module)
             except ModuleNotFoundError as exc:  # the domain package is not there (yet)
-                if exc.name != module:
+                if exc.name is None or not module.startswith(exc.name):
                     raise
             _LOADED.add(d)
 

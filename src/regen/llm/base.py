@@ -1,0 +1,86 @@
+"""The provider interface: the built-in providers implement it the way a plugin would."""
+
+from __future__ import annotations
+
+import logging
+import random
+import time
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, TypedDict, TypeVar
+
+from regen.errors import ProviderUnreachableError
+
+log = logging.getLogger(__name__)
+
+
+class Message(TypedDict):
+    role: str  # 'system' | 'user' | 'assistant'
+    content: str
+
+
+@dataclass(frozen=True)
+class Sampling:
+    """Sampling settings; part of the cache key. The paper used temperature 0 (and top-p 0)."""
+
+    temperature: float = 0.0
+    top_p: float | None = None  # None: the provider's default (greedy anyway at temperature 0)
+    max_tokens: int = 1024
+    seed: int = 0
+
+
+@dataclass
+class Completion:
+    text: str
+    input_tokens: int = 0
+    output_tokens: int = 0
+
+
+class Provider(ABC):
+    """A model behind one call. ``name`` is the provider family, ``model`` the model id."""
+
+    name: str = "provider"
+    model: str = ""
+    #: Whether calls may run concurrently (an in-process model is one at a time).
+    concurrent: bool = True
+
+    @property
+    def id(self) -> str:
+        return f"{self.name}:{self.model}"
+
+    @abstractmethod
+    def complete(self, messages: list[Message], *, schema: dict[str, Any] | None,
+                 sampling: Sampling) -> Completion:
+        """One model call. ``schema`` is the JSON schema the answer must follow (if supported)."""
+
+
+class RetryableError(Exception):
+    """A failure worth retrying (timeout, connection error, 429, 5xx)."""
+
+    def __init__(self, message: str, retry_after: float | None = None):
+        super().__init__(message)
+        self.retry_after = retry_after
+
+
+T = TypeVar("T")
+
+
+def with_retries(fn: Callable[[], T], *, what: str, attempts: int = 4, base_delay: float = 0.5,
+                 max_delay: float = 20.0, sleep: Callable[[float], None] = time.sleep) -> T:
+    """Call ``fn``; on :class:`RetryableError` back off exponentially (with jitter, honoring
+    Retry-After) and try again; after ``attempts`` tries raise ProviderUnreachableError."""
+    last: RetryableError | None = None
+    for i in range(attempts):
+        try:
+            return fn()
+        except RetryableError as exc:
+            last = exc
+            if i == attempts - 1:
+                break
+            delay = exc.retry_after if exc.retry_after is not None else base_delay * 2**i
+            delay = min(max_delay, delay) * (1 + 0.1 * random.random())
+            log.warning("%s failed (%s); retry %d/%d in %.1f s", what, exc, i + 1, attempts - 1, delay)
+            sleep(delay)
+    raise ProviderUnreachableError(f"{what} failed after {attempts} attempts: {last}. "
+                                   "Check the server or network, or use a cached run with --replay.")

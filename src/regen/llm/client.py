@@ -1,0 +1,208 @@
+"""Structured calls with validation, re-asks, caching, replay, usage accounting, concurrency."""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Generic, TypeVar
+
+from pydantic import BaseModel, ValidationError
+
+from regen.errors import CacheMissError, MalformedAnswerError
+from regen.llm.base import Completion, Message, Provider, Sampling
+from regen.llm.cache import CallCache, cache_key
+from regen.llm.json_extract import extract_json
+
+log = logging.getLogger(__name__)
+
+T = TypeVar("T", bound=BaseModel)
+R = TypeVar("R")
+I = TypeVar("I")  # noqa: E741
+
+
+@dataclass
+class PurposeStats:
+    calls: int = 0  # requests answered (model or cache)
+    model_calls: int = 0  # requests that reached the provider
+    cache_hits: int = 0
+    reasks: int = 0
+    failures: int = 0
+    input_tokens: int = 0
+    output_tokens: int = 0
+    latency: float = 0.0  # [s] summed provider latency (original latency for cache hits)
+
+
+@dataclass
+class UsageStats:
+    total: PurposeStats = field(default_factory=PurposeStats)
+    by_purpose: dict[str, PurposeStats] = field(default_factory=dict)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"total": vars(self.total).copy(),
+                "by_purpose": {k: vars(v).copy() for k, v in sorted(self.by_purpose.items())}}
+
+    def summary(self) -> str:
+        t = self.total
+        return (f"{t.calls} calls ({t.model_calls} to the model, {t.cache_hits} cached, "
+                f"{t.reasks} re-asks), {t.input_tokens} tokens in, {t.output_tokens} out, "
+                f"{t.latency:.1f} s model time")
+
+
+@dataclass
+class Answered(Generic[T]):
+    value: T
+    call_id: str  # cache key of the call whose answer validated
+    cached: bool
+    attempts: int
+
+
+@dataclass
+class CallEvent:
+    purpose: str
+    cached: bool
+    input_tokens: int
+    output_tokens: int
+    latency: float
+
+
+def _format_errors(exc: ValidationError) -> str:
+    parts = []
+    for err in exc.errors()[:8]:
+        loc = ".".join(str(x) for x in err["loc"]) or "(answer)"
+        parts.append(f"{loc}: {err['msg']}")
+    return "; ".join(parts)
+
+
+class LLM:
+    """A model client for structured answers.
+
+    Args:
+        provider: a provider string (``local``, ``openai:<model>``, ``anthropic:<model>``) or object.
+        cache: path of the SQLite cache file, a :class:`CallCache`, or None (memory only).
+        replay: forbid model calls; a cache miss raises :class:`CacheMissError`.
+        max_reasks: how often an answer that fails validation is sent back with the errors.
+        concurrency: how many calls :meth:`map` runs at once (an in-process model runs one at a time).
+        sampling: temperature etc.; part of the cache key.
+    """
+
+    def __init__(self, provider: str | Provider = "local", *, cache: str | Path | CallCache | None = None,
+                 replay: bool = False, max_reasks: int = 2, concurrency: int = 4,
+                 sampling: Sampling | None = None, on_call: Callable[[CallEvent], None] | None = None,
+                 **provider_options: Any):
+        if isinstance(provider, str):
+            from regen.llm.registry import get_provider
+
+            provider = get_provider(provider, **provider_options)
+        self.provider = provider
+        self.cache = cache if isinstance(cache, CallCache) else CallCache(cache)
+        self.replay = replay
+        self.max_reasks = max_reasks
+        self.concurrency = max(1, concurrency)
+        self.sampling = sampling or Sampling()
+        self.on_call = on_call
+        self.stats = UsageStats()
+        self._stats_lock = threading.Lock()
+        self._provider_lock = threading.Lock()
+
+    # --- one call -----------------------------------------------------------------------------
+
+    def _record(self, purpose: str, completion: Completion, latency: float, cached: bool,
+                reask: bool = False, failed: bool = False) -> None:
+        with self._stats_lock:
+            for s in (self.stats.total, self.stats.by_purpose.setdefault(purpose, PurposeStats())):
+                s.calls += 1
+                s.model_calls += 0 if cached else 1
+                s.cache_hits += 1 if cached else 0
+                s.reasks += 1 if reask else 0
+                s.failures += 1 if failed else 0
+                s.input_tokens += completion.input_tokens
+                s.output_tokens += completion.output_tokens
+                s.latency += latency
+        if self.on_call:
+            self.on_call(CallEvent(purpose, cached, completion.input_tokens,
+                                   completion.output_tokens, latency))
+
+    def complete(self, messages: list[Message], schema: dict[str, Any] | None, *,
+                 purpose: str = "call", reask: bool = False) -> tuple[Completion, str, bool]:
+        """A raw cached call: (completion, cache key, whether it came from the cache)."""
+        key = cache_key(self.provider.id, messages, schema, self.sampling)
+        hit = self.cache.get(key)
+        if hit is not None:
+            completion, latency = hit
+            self._record(purpose, completion, latency, cached=True, reask=reask)
+            return completion, key, True
+        if self.replay:
+            raise CacheMissError(
+                f"replay mode: no cached answer for a '{purpose}' call to {self.provider.id} "
+                f"(key {key[:12]}). Run without --replay to call the model, or use the cache "
+                "file of the run you are replaying.")
+        start = time.perf_counter()
+        if self.provider.concurrent:
+            completion = self.provider.complete(messages, schema=schema, sampling=self.sampling)
+        else:
+            with self._provider_lock:
+                completion = self.provider.complete(messages, schema=schema, sampling=self.sampling)
+        latency = time.perf_counter() - start
+        self.cache.put(key, self.provider.id, purpose, completion, latency)
+        self._record(purpose, completion, latency, cached=False, reask=reask)
+        return completion, key, False
+
+    def ask(self, messages: str | Sequence[Message], schema: type[T], *, purpose: str = "call",
+            system: str | None = None) -> Answered[T]:
+        """Ask for an answer that validates against ``schema``; re-ask with the errors."""
+        msgs: list[Message] = ([{"role": "user", "content": messages}] if isinstance(messages, str)
+                               else [dict(m) for m in messages])  # type: ignore[misc]
+        if system:
+            msgs.insert(0, {"role": "system", "content": system})
+        json_schema = schema.model_json_schema()
+        problem = ""
+        all_cached = True
+        for attempt in range(self.max_reasks + 1):
+            completion, key, cached = self.complete(msgs, json_schema, purpose=purpose,
+                                                    reask=attempt > 0)
+            all_cached &= cached
+            try:
+                value = schema.model_validate(extract_json(completion.text))
+                return Answered(value=value, call_id=key, cached=all_cached, attempts=attempt + 1)
+            except ValidationError as exc:
+                problem = _format_errors(exc)
+            except ValueError as exc:
+                problem = str(exc)
+            log.info("answer for %s did not validate (%s); re-asking", purpose, problem)
+            msgs = msgs + [
+                {"role": "assistant", "content": completion.text},
+                {"role": "user", "content": "Your answer is not valid: " + problem
+                 + ". Reply again with only the corrected JSON object."},
+            ]
+        with self._stats_lock:
+            self.stats.total.failures += 1
+            self.stats.by_purpose.setdefault(purpose, PurposeStats()).failures += 1
+        raise MalformedAnswerError(
+            f"{self.provider.id} gave no valid '{purpose}' answer after {self.max_reasks} re-asks: "
+            f"{problem}. A stronger model (--llm openai:<model> or anthropic:<model>) usually fixes this.")
+
+    def structured(self, messages: str | Sequence[Message], schema: type[T], *, purpose: str = "call",
+                   system: str | None = None) -> T:
+        """Like :meth:`ask`, returning only the validated value."""
+        return self.ask(messages, schema, purpose=purpose, system=system).value
+
+    # --- many calls ---------------------------------------------------------------------------
+
+    def map(self, fn: Callable[[I], R], items: Iterable[I]) -> list[R]:
+        """Apply ``fn`` (which makes calls on this client) to items concurrently, keeping order.
+
+        An in-process model serializes its calls anyway; remote providers gain up to
+        ``concurrency`` times. The first exception is raised after all calls finished.
+        """
+        items = list(items)
+        workers = min(self.concurrency if self.provider.concurrent else 1, len(items)) or 1
+        if workers == 1:
+            return [fn(x) for x in items]
+        with ThreadPoolExecutor(max_workers=workers, thread_name_prefix="llm") as pool:
+            futures = [pool.submit(fn, x) for x in items]
+            return [f.result() for f in futures]

@@ -1,0 +1,1 @@
+"""Built-in providers: OpenAI(-compatible), Anthropic, and the in-process local model."""

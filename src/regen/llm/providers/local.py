@@ -1,0 +1,89 @@
+"""An in-process GGUF model through llama-cpp-python, with schema-constrained decoding.
+
+``local`` is the offline default model; ``local:qwen2.5-0.5b`` a smaller one;
+``local:/path/model.gguf`` any GGUF file (checked against ``REGEN_LOCAL_SHA256`` if set).
+The model is loaded once per process and used by one call at a time.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+from regen.errors import DependencyNotInstalled, ModelFileError
+from regen.llm.base import Completion, Message, Provider, Sampling
+from regen.llm.model_files import DEFAULT_MODEL, MODELS, ensure_model, verify
+
+log = logging.getLogger(__name__)
+
+_LOADED: dict[tuple[str, int], Any] = {}
+_LOAD_LOCK = threading.Lock()
+
+
+def _threads() -> int:
+    return max(1, min(os.cpu_count() or 1, 8))
+
+
+def load_llama(path: Path, n_ctx: int = 4096) -> Any:
+    """Load (once per process) and return a ``llama_cpp.Llama``."""
+    try:
+        import llama_cpp
+    except ImportError:
+        raise DependencyNotInstalled("llama-cpp-python", "local", "the offline model") from None
+    key = (str(path), n_ctx)
+    with _LOAD_LOCK:
+        if key not in _LOADED:
+            start = time.perf_counter()
+            _LOADED[key] = llama_cpp.Llama(model_path=str(path), n_ctx=n_ctx, n_threads=_threads(),
+                                           verbose=False, seed=0)
+            log.info("loaded %s in %.1f s", path.name, time.perf_counter() - start)
+        return _LOADED[key]
+
+
+class LocalProvider(Provider):
+    name = "local"
+    concurrent = False
+
+    def __init__(self, model: str = "", *, n_ctx: int = 4096):
+        model = model or DEFAULT_MODEL
+        self.n_ctx = n_ctx
+        if model in MODELS:
+            self.model = model
+            self._path: Path | None = None
+        else:
+            path = Path(model).expanduser()
+            if not path.is_file():
+                raise ModelFileError(f"local model {model!r} is neither a known model "
+                                     f"({', '.join(sorted(MODELS))}) nor an existing .gguf file")
+            sha = os.environ.get("REGEN_LOCAL_SHA256")
+            if sha:
+                verify(path, sha.strip().lower())
+            self.model = path.name
+            self._path = path
+
+    def path(self) -> Path:
+        if self._path is None:
+            self._path = ensure_model(self.model)
+        return self._path
+
+    def llama(self) -> Any:
+        return load_llama(self.path(), self.n_ctx)
+
+    def complete(self, messages: list[Message], *, schema: dict[str, Any] | None,
+                 sampling: Sampling) -> Completion:
+        llm = self.llama()
+        kwargs: dict[str, Any] = {"messages": messages, "temperature": sampling.temperature,
+                                  "max_tokens": sampling.max_tokens, "seed": sampling.seed}
+        if sampling.top_p is not None:
+            kwargs["top_p"] = sampling.top_p
+        if schema is not None:
+            kwargs["response_format"] = {"type": "json_object", "schema": schema}
+        out = llm.create_chat_completion(**kwargs)
+        usage = out.get("usage") or {}
+        return Completion(text=out["choices"][0]["message"]["content"] or "",
+                          input_tokens=int(usage.get("prompt_tokens", 0)),
+                          output_tokens=int(usage.get("completion_tokens", 0)))

@@ -1,0 +1,85 @@
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from regen.assets import load_database
+from regen.errors import AssetDatabaseError, ConfigError
+
+
+@pytest.mark.parametrize("domain", ["driving", "manipulation"])
+def test_builtin_databases_load_and_cross_check(domain: str) -> None:
+    db = load_database(domain)
+    assert db.entities()
+    g = db.graph()
+    # every asset hangs under a category, every enumerated state under its property
+    for asset in db.assets:
+        assert any(g.nodes[p].get("type") == "category" for p in g.predecessors(asset)), asset
+    for prop, spec in db.properties.items():
+        for s in spec.states or []:
+            assert g.has_edge(prop, f"{prop}={s}")
+
+
+def test_driving_database_has_the_issue_assets() -> None:
+    db = load_database("driving")
+    for a in ["sedan", "suv", "truck", "bus", "bicycle", "motorcycle", "ambulance", "police_car",
+              "fire_truck", "adult", "child", "pedestrian_group", "debris", "traffic_cone", "barrier",
+              "box", "parked_car", "traffic_light", "gnss", "camera"]:
+        assert a in db.assets, a
+    assert db.property_candidates("ambulance", "siren") == ["on", "off"]
+    assert db.property_candidates("traffic_light", "light_state")[:4] == ["red", "yellow", "green", "off"]
+    assert db.property_candidates("ambulance", "start_location") is None  # the model proposes these
+    assert "cross_the_road" in db.property_candidates("adult", "behavior")
+    assert "target_speed" in db.parameters_of("sedan")
+
+
+def test_manipulation_database_has_articulated_furniture() -> None:
+    db = load_database("manipulation")
+    for a in ["door", "window", "drawer", "cabinet", "faucet", "oven", "fridge", "bucket", "pet", "child"]:
+        assert a in db.assets, a
+
+
+def _write(tmp_path: Path, data: dict) -> Path:
+    p = tmp_path / "db.json"
+    p.write_text(json.dumps(data))
+    return p
+
+
+def _minimal() -> dict:
+    return {"name": "mini", "simulator": "x", "categories": {"vehicles": ["car"]},
+            "assets": {"car": {"kind": "agent", "description": "car", "properties": ["siren"]}},
+            "properties": {"siren": {"description": "s", "states": ["on", "off"]}}}
+
+
+def test_user_database_loads(tmp_path: Path) -> None:
+    db = load_database(_write(tmp_path, _minimal()))
+    assert db.entities() == ["car"]
+
+
+def test_malformed_database_names_file_and_key(tmp_path: Path) -> None:
+    data = _minimal()
+    data["assets"]["car"]["properties"] = ["siren", "sirne"]
+    path = _write(tmp_path, data)
+    with pytest.raises(AssetDatabaseError, match=r"db\.json: assets\.car\.properties\[1\]: unknown property 'sirne'"):
+        load_database(path)
+
+
+def test_wrong_type_names_the_key(tmp_path: Path) -> None:
+    data = _minimal()
+    data["assets"]["car"]["kind"] = "spaceship"
+    with pytest.raises(AssetDatabaseError, match=r"assets\.car\.kind"):
+        load_database(_write(tmp_path, data))
+
+
+def test_invalid_json_names_line(tmp_path: Path) -> None:
+    p = tmp_path / "bad.json"
+    p.write_text('{"name": "x",\n "simulator": }')
+    with pytest.raises(AssetDatabaseError, match="bad.json: not valid JSON at line 2"):
+        load_database(p)
+
+
+def test_missing_file_is_a_config_error(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="neither a built-in domain"):
+        load_database(tmp_path / "nope.json")
