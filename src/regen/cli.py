@@ -131,6 +131,94 @@ def model_verify(alias: str = typer.Argument("qwen2.5-coder-1.5b")) -> None:
     console.print(f"sha256 ok: {path}")
 
 
+def llm_options(llm: str, cache: str | None, replay: bool, on_call=None):
+    """Build the LLM client the commands share (cache in the user cache dir by default)."""
+    from regen.llm import LLM
+    from regen.paths import cache_dir
+
+    path = cache or str(cache_dir() / "llm-cache.sqlite")
+    return LLM(llm, cache=path, replay=replay, on_call=on_call)
+
+
+LLM_HELP = ("Model: local (offline default), local:<alias or .gguf>, openai:<model> "
+            "(OPENAI_API_KEY; any compatible server via REGEN_OPENAI_BASE_URL), anthropic:<model>")
+
+
+@app.command("expand")
+@friendly
+def expand_cmd(
+    behavior: str = typer.Argument(..., help="The robot behavior, e.g. 'the ego-vehicle stops abruptly'"),
+    domain: str = typer.Option(..., "--domain", "-d", help="driving or manipulation"),
+    out: str = typer.Option(..., "--out", "-o", help="Folder for graph.json, graph.png, graph.html"),
+    llm: str = typer.Option("local", "--llm", help=LLM_HELP),
+    depth: int = typer.Option(1, "--depth", min=1, max=6, help="Event layers behind the behavior"),
+    max_nodes: int = typer.Option(12, "--max-nodes", min=1, help="Most cause events to accept"),
+    max_calls: int = typer.Option(None, "--max-calls", min=1, help="Stop after this many model calls"),
+    max_tokens: int = typer.Option(None, "--max-tokens", min=1, help="Stop after this many tokens"),
+    causes: int = typer.Option(4, "--causes", min=1, max=12, help="Causes proposed per event"),
+    prior: str = typer.Option(None, "--prior", help="Steer proposals, e.g. 'police car'"),
+    candidate: list[str] = typer.Option(None, "--candidate", help="A cause to judge too (repeatable)"),
+    cache: str = typer.Option(None, "--cache", help="LLM cache file (default: user cache dir)"),
+    replay: bool = typer.Option(False, "--replay", help="Forbid model calls: cached answers only"),
+) -> None:
+    """Infer a causal graph of events, entities and properties behind a behavior (paper Alg. 1)."""
+    from pathlib import Path
+
+    from rich.live import Live
+    from rich.spinner import Spinner
+
+    from regen.core.behavior import make_behavior
+    from regen.expand import Limits
+    from regen.expand.run import run_expand
+
+    b = make_behavior(behavior, domain)
+    status = {"stage": "events", "text": ""}
+    spinner = Spinner("dots", text="starting")
+    client = None
+
+    def on_call(ev) -> None:
+        if client is not None:
+            spinner.update(text=f"{status['stage']}: {client.stats.summary()}")
+
+    client = llm_options(llm, cache, replay, on_call)
+    limits = Limits(max_depth=depth, max_nodes=max_nodes, max_calls=max_calls, max_tokens=max_tokens,
+                    max_causes=causes)
+
+    def on_update(graph, what: str) -> None:
+        status["stage"] = {"events": "entities", "entities": "properties"}.get(what, what)
+
+    with Live(spinner, console=err_console, transient=True, refresh_per_second=4):
+        res = run_expand(b, client, Path(out), limits=limits, prior=prior, candidates=candidate or [],
+                         on_update=on_update)
+    g = res.graph
+    paths = g.paths()
+    counts = g.counts()
+    console.print(f"graph: {counts.get('event:accepted', 1) - 1} causes accepted, "
+                  f"{counts.get('event:rejected', 0)} rejected, "
+                  f"{counts.get('event:unsimulatable', 0)} not simulatable; "
+                  f"{counts.get('entity:accepted', 0)} entities, {counts.get('property:accepted', 0)} property values")
+    console.print(f"stopped: {g.stop_reason}")
+    console.print(f"{len(paths)} simulatable cause chain(s):")
+    for p in paths:
+        console.print("  - " + escape(" -> ".join(p.events)))
+    if not paths:
+        err_console.print("[yellow]no simulatable cause chain: try --depth, --prior, --candidate or a "
+                          "stronger model (--llm openai:<model>)[/]")
+    console.print(f"model use: {client.stats.summary()}")
+    for name, path in res.files.items():
+        console.print(f"{name}: {path}")
+
+
+def _mount_eval() -> None:
+    from regen.evaluation.cli import eval_command
+
+    app.command("eval", help="Diversity (embedding, Self-BLEU), feasibility, controllability, "
+                             "edge-construction accuracy over run folders or text sets.")(eval_command)
+
+
+_mount_eval()
+
+
 def print_json(value: Any) -> None:
     console.print_json(json.dumps(value, default=str))
 

@@ -60,7 +60,7 @@ def test_unknown_predicate_is_an_invalid_scenario_not_a_crash() -> None:
     sc = _scenario([[("ego", "stopped")]])
     sc.fsm.states[2].all_of[0].name = "levitating"
     v = check_fsm(sc, _trace([0, 0], [0, 0]))
-    assert not v.feasible and v.status == "invalid_scenario" and "unknown predicate 'levitating'" in v.reason
+    assert not v.feasible and v.status == "invalid_scenario" and "unknown predicate 'levitating' for driving" in v.reason
 
 
 def test_validate_fsm_reports_arity_and_params() -> None:
@@ -76,5 +76,5 @@ def test_predicates_are_vectorized_over_steps() -> None:
     from regen.verify import get_predicate
 
     tr = _trace([0.0, 0.2, 1.0], [0, 0, 0])
-    out = get_predicate("moving").fn(tr, ["ego"], {"min_speed": 0.5})
+    out = get_predicate("moving", "driving").fn(tr, ["ego"], {"min_speed": 0.5})
     assert isinstance(out, np.ndarray) and out.tolist() == [False, False, True]

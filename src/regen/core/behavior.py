@@ -41,3 +41,18 @@ class Behavior(Model):
         if len(v) > 2000:
             raise ValueError("the behavior text is longer than 2000 characters: shorten it")
         return v
+
+
+def make_behavior(text: str, domain: str, **fields: object) -> Behavior:
+    """Build a Behavior from user input, turning validation errors into a ConfigError."""
+    from pydantic import ValidationError
+
+    from regen.errors import ConfigError
+
+    if domain not in DOMAINS:
+        raise ConfigError(f"unknown domain {domain!r}; choose one of: {', '.join(DOMAINS)}")
+    try:
+        return Behavior(text=text, domain=domain, **fields)  # type: ignore[arg-type]
+    except ValidationError as exc:
+        msg = "; ".join(str(e["msg"]).removeprefix("Value error, ") for e in exc.errors())
+        raise ConfigError(f"bad behavior: {msg}") from None

@@ -83,6 +83,23 @@ class CallCache:
                  completion.output_tokens, latency, time.time()))
             self._db.commit()
 
+    def export_json(self, path: str | Path) -> int:
+        """Write all entries to a JSON cassette (for recorded-answer tests); returns the count."""
+        with self._lock:
+            rows = self._db.execute("SELECT key, provider, purpose, response, input_tokens, "
+                                    "output_tokens, latency FROM calls ORDER BY created").fetchall()
+        cols = ("key", "provider", "purpose", "response", "input_tokens", "output_tokens", "latency")
+        Path(path).write_text(json.dumps([dict(zip(cols, r, strict=True)) for r in rows], indent=1))
+        return len(rows)
+
+    def import_json(self, path: str | Path) -> int:
+        """Load a JSON cassette written by :meth:`export_json`; returns the count."""
+        rows = json.loads(Path(path).read_text())
+        for r in rows:
+            self.put(r["key"], r["provider"], r["purpose"],
+                     Completion(r["response"], r["input_tokens"], r["output_tokens"]), r["latency"])
+        return len(rows)
+
     def __len__(self) -> int:
         with self._lock:
             return int(self._db.execute("SELECT COUNT(*) FROM calls").fetchone()[0])

@@ -43,18 +43,23 @@ class PredicateSpec:
         return f"{self.name}({', '.join(args + extra)})"
 
 
-_REGISTRY: dict[str, PredicateSpec] = {}
+# domain -> name -> spec: domains may use the same name for their own meaning ('behind' on a
+# road is about lanes and travel direction; on a table it is about the robot's view).
+_REGISTRY: dict[str, dict[str, PredicateSpec]] = {d: {} for d in DOMAIN_MODULES}
 _LOADED: set[str] = set()
 
 
 def predicate(name: str, arity: int, doc: str, *, domains: tuple[str, ...] = ("driving", "manipulation"),
               params: dict[str, float | str] | None = None) -> Callable[[PredicateFn], PredicateFn]:
-    """Register a predicate function under ``name``."""
+    """Register a predicate function under ``name`` for ``domains``."""
 
     def deco(fn: PredicateFn) -> PredicateFn:
-        if name in _REGISTRY and _REGISTRY[name].fn is not fn:
-            raise ValueError(f"predicate {name!r} is registered twice")
-        _REGISTRY[name] = PredicateSpec(name, arity, doc, fn, tuple(domains), dict(params or {}))
+        spec = PredicateSpec(name, arity, doc, fn, tuple(domains), dict(params or {}))
+        for d in domains:
+            table = _REGISTRY.setdefault(d, {})
+            if name in table and table[name].fn is not fn:
+                raise ValueError(f"predicate {name!r} is registered twice for domain {d!r}")
+            table[name] = spec
         return fn
 
     return deco
@@ -72,17 +77,23 @@ def _load(domain: str | None) -> None:
 
 
 def list_predicates(domain: str | None = None) -> list[PredicateSpec]:
+    """The library of a domain (or of all domains), sorted by name."""
     _load(domain)
-    return sorted((s for s in _REGISTRY.values() if domain is None or domain in s.domains),
-                  key=lambda s: s.name)
+    tables = [_REGISTRY.get(domain, {})] if domain else list(_REGISTRY.values())
+    seen: dict[int, PredicateSpec] = {}
+    for table in tables:
+        for spec in table.values():
+            seen.setdefault(id(spec), spec)
+    return sorted(seen.values(), key=lambda s: (s.name, s.domains))
 
 
-def get_predicate(name: str, domain: str | None = None) -> PredicateSpec:
+def get_predicate(name: str, domain: str) -> PredicateSpec:
+    """The predicate ``name`` of ``domain``; ConfigError naming the library when unknown."""
     _load(domain)
-    spec = _REGISTRY.get(name)
-    if spec is None or (domain is not None and domain not in spec.domains):
+    spec = _REGISTRY.get(domain, {}).get(name)
+    if spec is None:
         known = ", ".join(s.name for s in list_predicates(domain))
-        raise ConfigError(f"unknown predicate {name!r}; the library has: {known}")
+        raise ConfigError(f"unknown predicate {name!r} for {domain}; the library has: {known}")
     return spec
 
 

@@ -1,0 +1,88 @@
+"""``regen eval``: a thin command over ``regen.evaluation.evaluate``.
+
+Mount it in the main app with ``app.command("eval")(eval_command)``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+
+from regen.errors import RegenError
+from regen.evaluation.edges import bundled_edge_examples, model_judge
+from regen.evaluation.evaluate import EvalSettings, evaluate
+from regen.evaluation.tables import print_report
+from regen.evaluation.textsets import EXAMPLE_PREFIX, bundled_sets
+
+
+def eval_command(
+    sources: Annotated[list[str] | None, typer.Argument(
+        help="Run folders, text sets (.txt one per line, .json, .jsonl) or example:<name> "
+             "(bundled sets; see --list-examples). Each is one column of the comparison.",
+        show_default=False)] = None,
+    out: Annotated[Path | None, typer.Option(
+        "--out", "-o", help="Folder for eval.json and PNG plots.")] = None,
+    sample_size: Annotated[int | None, typer.Option(
+        "--n", help="Texts drawn per repeat; default: the smallest set size.")] = None,
+    repeats: Annotated[int, typer.Option(help="Draws per set (the paper uses 10).")] = 10,
+    seed: Annotated[int, typer.Option(help="Seed of the draws.")] = 0,
+    embeddings: Annotated[bool, typer.Option(
+        help="Embedding diversity with all-MiniLM-L6-v2 (needs the eval extra).")] = True,
+    self_bleu: Annotated[bool, typer.Option("--self-bleu/--no-self-bleu",
+                                            help="Self-BLEU diversity.")] = True,
+    edges: Annotated[str | None, typer.Option(
+        help="Labeled edge file (JSON lines) for edge-construction accuracy; 'example' uses "
+             "the bundled one.")] = None,
+    llm: Annotated[str, typer.Option(help="Model for edge construction, e.g. local or "
+                                          "openai:gpt-4o.")] = "local",
+    trials: Annotated[int, typer.Option(help="Edge-construction trials.")] = 5,
+    list_examples: Annotated[bool, typer.Option(
+        "--list-examples", help="List the bundled example text sets and exit.")] = False,
+) -> None:
+    """Diversity (embedding and Self-BLEU), feasibility, controllability and edge accuracy."""
+    console = Console()
+    if list_examples:
+        for name, about in bundled_sets().items():
+            console.print(f"{EXAMPLE_PREFIX}{name}\t{about}")
+        return
+    try:
+        judge_for_trial = None
+        edges_file = None
+        if edges is not None:
+            edges_file = bundled_edge_examples() if edges == "example" else Path(edges)
+            from regen.llm import LLM  # the LLM layer is only needed for edges
+
+            model_judge(LLM(llm))  # fail early (missing key, missing package) before any work
+
+            def judge_for_trial(_trial: int):
+                # a fresh client per trial: no answers cached from earlier trials
+                return model_judge(LLM(llm))
+        settings = EvalSettings(sample_size=sample_size, repeats=repeats, seed=seed,
+                                embeddings=embeddings, self_bleu=self_bleu, edge_trials=trials)
+        with console.status("evaluating") as status:
+            report = evaluate(sources or [], settings=settings, edges_file=edges_file,
+                              judge_for_trial=judge_for_trial, out_dir=out,
+                              progress=lambda msg: status.update(msg))
+    except RegenError as exc:
+        Console(stderr=True).print(f"[red]error:[/red] {exc}")
+        raise typer.Exit(code=exc.exit_code) from exc
+    print_report(report, console)
+
+
+def make_app() -> typer.Typer:
+    """A standalone Typer app with only ``eval`` (for tests and ``python -m``)."""
+    app = typer.Typer(add_completion=False)
+    app.command("eval")(eval_command)
+
+    @app.callback()
+    def _root() -> None:
+        """regen evaluation."""
+
+    return app
+
+
+if __name__ == "__main__":
+    make_app()()

@@ -1,0 +1,162 @@
+"""Read run folders defensively into flat records for evaluation.
+
+A run folder (written by ``regen run``) holds ``run.json`` (behavior, settings), ``graph.json``
+(the ScenarioGraph) and ``scenarios/<id>/scenario.json`` (a Scenario, possibly under the key
+``"scenario"``) with ``scenarios/<id>/verdict.json`` (a Verdict). Any of these may be missing
+or from an older format: what cannot be read becomes a note on the record, never a crash.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel, Field, ValidationError
+
+from regen.core.scenario import Scenario
+from regen.core.verdict import Verdict
+from regen.errors import ConfigError
+
+log = logging.getLogger(__name__)
+
+
+class ScenarioRecord(BaseModel):
+    """What evaluation needs from one scenario folder."""
+
+    id: str
+    behavior: str  # behavior text
+    domain: str | None = None
+    text: str = ""  # narrative, else the cause chain joined
+    causes: list[str] = Field(default_factory=list)  # event labels, root cause first, behavior excluded
+    properties: dict[str, dict[str, str]] = Field(default_factory=dict)  # entity -> property -> value
+    feasible: bool | None = None  # None: no verdict
+    status: str = "missing"  # the verdict status, or 'missing'
+    reason: str = ""
+    first_unmet_stage: int | None = None
+    notes: list[str] = Field(default_factory=list)  # what could not be read
+
+
+class RunRecord(BaseModel):
+    path: str
+    behavior: str
+    domain: str | None = None
+    scenarios: list[ScenarioRecord] = Field(default_factory=list)
+    notes: list[str] = Field(default_factory=list)
+
+
+def is_run_folder(path: Path) -> bool:
+    """A folder with ``run.json`` or a ``scenarios/`` subfolder."""
+    return path.is_dir() and ((path / "run.json").is_file() or (path / "scenarios").is_dir())
+
+
+def _read_json(path: Path, notes: list[str]) -> Any:
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        return None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        notes.append(f"{path.name}: unreadable ({exc.__class__.__name__}: {exc})")
+        return None
+
+
+def _behavior_text(value: Any) -> str | None:
+    if isinstance(value, str):
+        return value
+    if isinstance(value, dict) and isinstance(value.get("text"), str):
+        return value["text"]
+    return None
+
+
+def _fill_from_scenario(rec: ScenarioRecord, data: Any) -> None:
+    if isinstance(data, dict) and isinstance(data.get("scenario"), dict):
+        data = data["scenario"]
+    if not isinstance(data, dict):
+        rec.notes.append("scenario.json holds no scenario object")
+        return
+    try:
+        sc = Scenario.model_validate(data)
+    except ValidationError as exc:
+        rec.notes.append(f"scenario.json does not validate ({exc.error_count()} errors); read loosely")
+        sc = None
+    if sc is not None:
+        chain, narrative = sc.causal_graph, sc.narrative
+        rec.behavior = sc.behavior.text
+        rec.domain = sc.domain
+        rec.properties = {e.name: dict(e.properties) for e in sc.entities if e.properties}
+    else:
+        chain = [str(c) for c in data.get("causal_graph") or [] if isinstance(c, str | int | float)]
+        narrative = data.get("narrative") if isinstance(data.get("narrative"), str) else ""
+        rec.behavior = _behavior_text(data.get("behavior")) or rec.behavior
+        rec.domain = data.get("domain") if isinstance(data.get("domain"), str) else rec.domain
+        for e in data.get("entities") or []:
+            if isinstance(e, dict) and isinstance(e.get("properties"), dict):
+                rec.properties[str(e.get("name", "?"))] = {
+                    str(k): str(v) for k, v in e["properties"].items()}
+    # causal_graph lists the root cause first and the behavior last
+    causes = list(chain)
+    if causes and causes[-1].strip().lower() == rec.behavior.strip().lower():
+        causes = causes[:-1]
+    elif len(causes) > 1:
+        causes = causes[:-1]
+    rec.causes = causes
+    rec.text = narrative.strip() or " -> ".join(chain)
+
+
+def _fill_from_verdict(rec: ScenarioRecord, data: Any) -> None:
+    if not isinstance(data, dict):
+        rec.notes.append("verdict.json holds no verdict object")
+        return
+    try:
+        v = Verdict.model_validate(data)
+        rec.feasible, rec.status, rec.reason = v.feasible, v.status, v.reason
+        rec.first_unmet_stage = v.first_unmet_stage
+    except ValidationError:
+        rec.notes.append("verdict.json does not validate; read loosely")
+        if isinstance(data.get("feasible"), bool):
+            rec.feasible = data["feasible"]
+        rec.status = str(data.get("status") or ("verified" if rec.feasible else "unknown"))
+        rec.reason = str(data.get("reason") or "")
+
+
+def load_run(path: str | Path) -> RunRecord:
+    """Read one run folder. Raises ConfigError only if ``path`` is not a run folder at all."""
+    path = Path(path)
+    if not is_run_folder(path):
+        raise ConfigError(f"{path} is not a run folder (no run.json and no scenarios/ folder)")
+    notes: list[str] = []
+    run = _read_json(path / "run.json", notes) or {}
+    behavior = _behavior_text(run.get("behavior")) if isinstance(run, dict) else None
+    domain = None
+    if isinstance(run, dict):
+        b = run.get("behavior")
+        domain = run.get("domain") or (b.get("domain") if isinstance(b, dict) else None)
+    if behavior is None:
+        graph = _read_json(path / "graph.json", notes)
+        if isinstance(graph, dict):
+            behavior = _behavior_text(graph.get("behavior"))
+    rec = RunRecord(path=str(path), behavior=behavior or "", domain=domain, notes=notes)
+    scen_dir = path / "scenarios"
+    folders = sorted(p for p in scen_dir.iterdir() if p.is_dir()) if scen_dir.is_dir() else []
+    for folder in folders:
+        s = ScenarioRecord(id=folder.name, behavior=rec.behavior, domain=rec.domain)
+        sdata = _read_json(folder / "scenario.json", s.notes)
+        if sdata is not None:
+            _fill_from_scenario(s, sdata)
+        else:
+            s.notes.append("no scenario.json")
+        vdata = _read_json(folder / "verdict.json", s.notes)
+        if vdata is not None:
+            _fill_from_verdict(s, vdata)
+        rec.scenarios.append(s)
+    if not rec.behavior and rec.scenarios:
+        rec.behavior = next((s.behavior for s in rec.scenarios if s.behavior), "")
+    for s in rec.scenarios:
+        s.behavior = s.behavior or rec.behavior or "(unknown behavior)"
+    if not rec.behavior:
+        rec.behavior = "(unknown behavior)"
+    for s in rec.scenarios:
+        for n in s.notes:
+            log.info("%s/%s: %s", path.name, s.id, n)
+    return rec

@@ -1,0 +1,165 @@
+"""Node proposal and edge construction: the model calls of graph expansion (paper 2.1).
+
+Each function makes one model call and returns plain data plus the call id, so the caller can
+record who proposed, accepted or rejected what. Edge construction judges all candidates of one
+source node in one call, not pairwise.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from pydantic import Field, create_model
+
+from regen.assets.database import AssetDatabase
+from regen.core.base import Answer
+from regen.expand.answers import EdgeJudgement, EntitySelection, EventProposal
+from regen.expand.dedupe import normalize, similar
+from regen.llm.client import LLM
+from regen.prompting import render
+
+PKG = "regen.expand"
+
+
+@dataclass
+class Judged:
+    """The outcome of one edge-construction call."""
+
+    call_id: str
+    accepted: dict[str, str] = field(default_factory=dict)  # candidate -> reason
+    rejected: dict[str, str] = field(default_factory=dict)  # candidate -> reason
+    unknown: dict[str, str] = field(default_factory=dict)  # names the model gave that were not offered
+
+
+def system_prompt(domain: str) -> str:
+    return render(PKG, "system", domain=domain)
+
+
+def _match(name: str, options: list[str]) -> str | None:
+    """The option a model-written name refers to (exact, normalized, or near-duplicate)."""
+    if name in options:
+        return name
+    n = normalize(name).replace(" ", "_")
+    for o in options:
+        if normalize(o).replace(" ", "_") == n:
+            return o
+    for o in options:
+        if similar(name, o, threshold=0.9):
+            return o
+    return None
+
+
+def propose_events(llm: LLM, domain: str, chain: list[str], *, prior: str | None = None,
+                   max_causes: int = 4) -> tuple[list[str], str]:
+    """Candidate causes of ``chain[0]`` (chain runs from the source node to the behavior)."""
+    prompt = render(PKG, "event_proposal", domain=domain, chain=chain, source=chain[0],
+                    prior=prior, max_causes=max_causes)
+    got = llm.ask(prompt, EventProposal, purpose="event_proposal", system=system_prompt(domain))
+    return got.value.causes[:max_causes], got.call_id
+
+
+def judge_events(llm: LLM, domain: str, chain: list[str], candidates: list[str]) -> Judged:
+    """Which candidates plausibly and directly cause ``chain[0]`` (one call for all)."""
+    prompt = render(PKG, "event_edges", domain=domain, chain=chain, source=chain[0],
+                    candidates=candidates)
+    got = llm.ask(prompt, EdgeJudgement, purpose="event_edges", system=system_prompt(domain))
+    out = Judged(call_id=got.call_id)
+    for d in got.value.decisions:
+        target = _match(d.candidate, candidates)
+        if target is None:
+            out.unknown[d.candidate] = d.reason
+        elif target not in out.accepted and target not in out.rejected:
+            (out.accepted if d.plausible else out.rejected)[target] = d.reason or (
+                "plausible direct cause" if d.plausible else "judged implausible")
+    for c in candidates:
+        if c not in out.accepted and c not in out.rejected:
+            out.rejected[c] = "the model gave no decision for it"
+    return out
+
+
+def select_entities(llm: LLM, db: AssetDatabase, domain: str, chain: list[str]) -> Judged:
+    """Entities of the database directly related to the event ``chain[0]``."""
+    options = db.entities()
+    prompt = render(PKG, "entity_edges", domain=domain, chain=chain, source=chain[0],
+                    entities=[(a, db.assets[a].description) for a in options])
+    got = llm.ask(prompt, EntitySelection, purpose="entity_edges", system=system_prompt(domain))
+    out = Judged(call_id=got.call_id)
+    for ch in got.value.entities:
+        target = _match(ch.name, options)
+        if target is None:
+            out.unknown[ch.name] = "not in the simulator's asset database"
+        else:
+            out.accepted.setdefault(target, ch.reason or "directly related")
+    return out
+
+
+def propose_values(llm: LLM, domain: str, chain: list[str], event: str, entity: str,
+                   properties: list[tuple[str, str]], *, max_values: int = 3) -> tuple[dict[str, list[str]], str]:
+    """Candidate values for properties the database does not enumerate (locations)."""
+    fields: dict[str, Any] = {p: (list[str], Field(default_factory=list, description=d))
+                              for p, d in properties}
+    schema = create_model("FreeValues", __base__=Answer, **fields)
+    prompt = "\n\n".join(
+        render(PKG, "property_proposal", domain=domain, chain=chain, event=event, entity=entity,
+               property=p, description=d, max_values=max_values).rsplit("\n\nAnswer as JSON", 1)[0]
+        for p, d in properties)
+    example = "{" + ", ".join(f'"{p}": ["...", "..."]' for p, _ in properties) + "}"
+    prompt += f"\n\nAnswer as JSON: {example}"
+    got = llm.ask(prompt, schema, purpose="property_proposal", system=system_prompt(domain))
+    values = {p: [" ".join(v.split()) for v in getattr(got.value, p) if v and v.strip()][:max_values]
+              for p, _ in properties}
+    return values, got.call_id
+
+
+def select_properties(llm: LLM, domain: str, chain: list[str], event: str, entity: str,
+                      options: dict[str, tuple[str, list[str]]]) -> tuple[dict[str, Judged], str]:
+    """For each property (name -> (description, candidate values)) the supporting values."""
+    fields: dict[str, Any] = {p: (list[str], Field(default_factory=list)) for p in options}
+    fields["reason"] = (str, "")
+    schema = create_model("PropertyValues", __base__=Answer, **fields)
+    prompt = render(PKG, "property_edges", domain=domain, chain=chain, event=event, entity=entity,
+                    properties=[(p, d, v) for p, (d, v) in options.items()])
+    example = "{" + ", ".join(f'"{p}": ["<value>"]' for p in options) + ', "reason": "..."}'
+    prompt = prompt.rsplit("\n\nAnswer as JSON", 1)[0] + f"\n\nAnswer as JSON: {example}"
+    got = llm.ask(prompt, schema, purpose="property_edges", system=system_prompt(domain))
+    reason = got.value.reason or "supports the entity's role"
+    out: dict[str, Judged] = {}
+    for p, (_, values) in options.items():
+        j = Judged(call_id=got.call_id)
+        for v in getattr(got.value, p):
+            target = _match(v, values)
+            if target is None:
+                j.unknown[v] = f"not a value of {p} in the asset database or the proposed values"
+            else:
+                j.accepted.setdefault(target, reason)
+        for v in values:
+            if v not in j.accepted:
+                j.rejected[v] = "not chosen by the model"
+        out[p] = j
+    return out, got.call_id
+
+
+def judge_candidates(llm: LLM, kind: str, source: str, candidates: list[str], *,
+                     domain: str = "driving", context: list[str] | None = None,
+                     database: AssetDatabase | None = None) -> set[str]:
+    """Edge construction for evaluation: the accepted subset of ``candidates`` for ``source``.
+
+    ``kind`` is 'event->event', 'entity->event' or 'property->entity' (for the latter, ``source``
+    is 'entity: property' and ``context`` the event chain).
+    """
+    chain = [source, *(context or [])]
+    if kind == "event->event":
+        return set(judge_events(llm, domain, chain, candidates).accepted)
+    if kind == "entity->event":
+        from regen.assets import load_database
+
+        db = database or load_database(domain)
+        return {a for a in select_entities(llm, db, domain, chain).accepted if a in candidates}
+    if kind == "property->entity":
+        entity, _, prop = source.partition(":")
+        prop = prop.strip() or "value"
+        judged, _ = select_properties(llm, domain, context or [entity], (context or [entity])[0],
+                                      entity.strip(), {prop: (prop, candidates)})
+        return set(judged[prop].accepted)
+    raise ValueError(f"unknown edge kind {kind!r}; use event->event, entity->event or property->entity")

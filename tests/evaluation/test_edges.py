@@ -1,0 +1,171 @@
+"""Edge-construction accuracy with fake judges, the labeled file format and the bundled file."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from regen.errors import ConfigError, LLMError
+from regen.evaluation.edges import (
+    KINDS,
+    EdgeExample,
+    bundled_edge_examples,
+    evaluate_edges,
+    load_edge_examples,
+    metrics,
+)
+
+
+def ex(kind, source, cand, label, domain="driving", context=None):
+    return EdgeExample(kind=kind, source=source, candidate=cand, label=label, domain=domain,
+                       context=context)
+
+
+EXAMPLES = [
+    ex("event->event", "ego stops", "jaywalker in front", True),
+    ex("event->event", "ego stops", "ambulance behind", True),
+    ex("event->event", "ego stops", "jaywalker in another city", False),
+    ex("event->event", "ego stops", "radio plays a song", False),
+    ex("entity->event", "ambulance behind", "ambulance", True),
+    ex("entity->event", "ambulance behind", "bicycle", False),
+    ex("entity->event", "pet outside", "pet", True, domain="manipulation"),
+]
+
+
+def test_metrics_by_hand():
+    m = metrics([True, True, False, False], [True, False, True, False])
+    assert (m.accuracy, m.precision, m.recall, m.f1) == (0.5, 0.5, 0.5, 0.5)
+    m = metrics([True, True, False], [True, True, True])
+    assert m.precision == pytest.approx(2 / 3) and m.recall == 1.0
+    assert m.f1 == pytest.approx(0.8)
+    m = metrics([False, False], [False, False])  # nothing to find, nothing claimed
+    assert (m.accuracy, m.precision, m.recall) == (1.0, 1.0, 1.0)
+    m = metrics([True], [False])
+    assert (m.precision, m.recall, m.f1) == (0.0, 0.0, 0.0)
+
+
+def test_oracle_and_accept_all_judges():
+    truth = {(e.source, e.candidate) for e in EXAMPLES if e.label}
+    calls = []
+
+    def oracle(kind, source, candidates, *, context=None, domain="driving"):
+        calls.append((kind, source, tuple(candidates)))
+        return {c for c in candidates if (source, c) in truth}
+
+    rep = evaluate_edges(EXAMPLES, oracle, trials=3)
+    assert len(calls) == 9  # 3 calls (one per source, all its candidates at once) x 3 trials
+    assert calls[0] == ("event->event", "ego stops", ("jaywalker in front", "ambulance behind",
+                                                      "jaywalker in another city",
+                                                      "radio plays a song"))
+    assert [(g.domain, g.kind) for g in rep.groups] == [
+        ("driving", "event->event"), ("driving", "entity->event"), ("manipulation", "entity->event")]
+    for g in rep.groups:
+        assert (g.accuracy.mean, g.f1.mean, g.f1.std) == (1.0, 1.0, 0.0)
+
+    rep = evaluate_edges(EXAMPLES, lambda k, s, c, **kw: set(c), trials=2)
+    ev = rep.groups[0]
+    assert (ev.accuracy.mean, ev.precision.mean, ev.recall.mean) == (0.5, 0.5, 1.0)
+
+
+def test_varying_judge_gives_a_spread_and_failures_are_counted():
+    state = {"t": 0}
+
+    def flaky(kind, source, candidates, *, context=None, domain="driving"):
+        if source == "pet outside":
+            raise LLMError("model answer did not validate")
+        state["t"] += 1
+        # alternate between accepting the first candidate and accepting all of them
+        return set(candidates[:1]) if state["t"] % 2 else set(candidates)
+
+    rep = evaluate_edges(EXAMPLES[:4] + EXAMPLES[6:], flaky, trials=2)
+    ev = rep.groups[0]
+    assert [t.accuracy for t in ev.trials] == [0.75, 0.5]
+    assert ev.accuracy.mean == pytest.approx(0.625) and ev.accuracy.std == pytest.approx(0.125)
+    pet = rep.groups[1]
+    assert pet.failed_calls == 2 and pet.recall.mean == 0.0
+
+
+def test_load_file_and_errors(tmp_path):
+    f = tmp_path / "edges.jsonl"
+    f.write_text("# comment\n" + json.dumps({"kind": "event->event", "source": "a",
+                                             "candidate": "b", "label": True}) + "\n\n")
+    got = load_edge_examples(f)
+    assert got[0].domain == "driving" and got[0].context is None
+    f.write_text(json.dumps({"kind": "event->entity", "source": "a", "candidate": "b",
+                             "label": True}) + "\n")
+    with pytest.raises(ConfigError, match="line 1: kind"):
+        load_edge_examples(f)
+    f.write_text("# only comments\n")
+    with pytest.raises(ConfigError, match="no labeled examples"):
+        load_edge_examples(f)
+    with pytest.raises(ConfigError):
+        load_edge_examples(tmp_path / "missing.jsonl")
+    with pytest.raises(ConfigError):
+        evaluate_edges(got, lambda *a, **k: set(), trials=0)
+
+
+def test_bundled_file_covers_domains_and_kinds():
+    rows = load_edge_examples(bundled_edge_examples())
+    for domain in ("driving", "manipulation"):
+        mine = [r for r in rows if r.domain == domain]
+        assert len(mine) >= 20
+        assert {r.kind for r in mine} == set(KINDS)
+        assert any(r.label for r in mine) and any(not r.label for r in mine)
+    # candidates are unique within one edge-construction call
+    keys = [(r.domain, r.kind, r.source, r.context, r.candidate) for r in rows]
+    assert len(keys) == len(set(keys))
+
+
+def test_entity_candidates_are_database_assets():
+    from regen.assets import load_database
+
+    for r in load_edge_examples(bundled_edge_examples()):
+        if r.kind == "entity->event":
+            db = load_database(r.domain)
+            assert r.candidate in db.assets, r.candidate
+
+
+def test_context_chain():
+    from regen.evaluation.edges import context_chain
+
+    assert context_chain("stop <- ambulance behind <- ambulance", "ambulance") == [
+        "ambulance behind", "stop"]
+    assert context_chain("stop <- ambulance behind", "x") == ["ambulance behind", "stop"]
+    assert context_chain(None, "x") == []
+
+
+def test_model_judge_adapts_to_judge_candidates(monkeypatch):
+    import regen.expand.edges as expand_edges
+    from regen.evaluation.edges import model_judge
+
+    seen = []
+
+    def fake(llm, kind, source, candidates, *, domain="driving", context=None, database=None):
+        seen.append((kind, source, list(candidates), domain, context))
+        return {candidates[0]}
+
+    monkeypatch.setattr(expand_edges, "judge_candidates", fake)
+    judge = model_judge(llm=object())
+    assert judge("event->event", "stop", ["a", "b"]) == {"a"}
+    got = judge("property->entity", "ambulance", ["siren: on", "siren: off", "start_location: behind"],
+                context="stop <- ambulance behind <- ambulance", domain="driving")
+    assert got == {"siren: on", "start_location: behind"}
+    assert seen[0] == ("event->event", "stop", ["a", "b"], "driving", None)
+    assert seen[1] == ("property->entity", "ambulance: siren", ["on", "off"], "driving",
+                       ["ambulance behind", "stop"])
+    assert seen[2][1:3] == ("ambulance: start_location", ["behind"])
+
+
+def test_fresh_judge_per_trial():
+    made = []
+
+    def factory(t):
+        made.append(t)
+        return lambda kind, source, candidates, **kw: set(candidates) if t == 0 else set()
+
+    rep = evaluate_edges(EXAMPLES, trials=2, judge_for_trial=factory)
+    assert made == [0, 1]
+    assert [m.recall for m in rep.groups[0].trials] == [1.0, 0.0]
+    with pytest.raises(ConfigError):
+        evaluate_edges(EXAMPLES)
