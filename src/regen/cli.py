@@ -209,6 +209,121 @@ def expand_cmd(
         console.print(f"{name}: {path}")
 
 
+runs_app = typer.Typer(no_args_is_help=True, help="List and show run folders.")
+app.add_typer(runs_app, name="runs")
+
+
+@app.command("generate")
+@friendly
+def generate_cmd(
+    behavior: str = typer.Argument(..., help="The robot behavior, e.g. 'the ego-vehicle stops abruptly'"),
+    domain: str = typer.Option(..., "--domain", "-d", help="driving or manipulation"),
+    out: str = typer.Option(..., "--out", "-o", help="Run folder (rerun the same command to resume)"),
+    llm: str = typer.Option("local", "--llm", help=LLM_HELP),
+    replay: bool = typer.Option(False, "--replay", help="Forbid model calls: cached answers only"),
+    depth: int = typer.Option(1, "--depth", min=1, max=6, help="Event layers behind the behavior"),
+    max_nodes: int = typer.Option(8, "--max-nodes", min=1, help="Most cause events to accept"),
+    scenarios: int = typer.Option(3, "--scenarios", "-n", min=1, help="Most scenarios to simulate"),
+    causes: int = typer.Option(4, "--causes", min=1, max=12, help="Causes proposed per event"),
+    prior: str = typer.Option(None, "--prior", help="Steer proposals, e.g. 'police car'"),
+    candidate: list[str] = typer.Option(None, "--candidate", help="A cause to judge too (repeatable)"),
+    template: str = typer.Option(None, "--ego", help="Driving: ego behavior template (default: from the text)"),
+    reward: str = typer.Option(None, "--reward", help="Manipulation: reward function id (default: from the text)"),
+    seed: int = typer.Option(0, "--seed", help="Seed for solving and simulation"),
+    workers: int = typer.Option(1, "--workers", min=1, max=64, help="Processes for simulation"),
+    no_pictures: bool = typer.Option(False, "--no-pictures", help="Skip GIFs and key frames"),
+    log: str = typer.Option("rich", "--log", help="Progress: rich (default), quiet, or jsonl (stdout)"),
+) -> None:
+    """The main job: behavior -> causal graph -> scenarios -> simulation -> verdicts -> report."""
+    from pathlib import Path
+
+    from regen.core.behavior import make_behavior
+    from regen.errors import ConfigError
+    from regen.pipeline import RunSettings, generate
+    from regen.progress import make_progress
+
+    if log not in ("rich", "quiet", "jsonl"):
+        raise ConfigError(f"--log must be rich, quiet or jsonl, not {log!r}")
+    extra = {}
+    if template:
+        extra["ego_template"] = template
+    if reward:
+        extra["reward"] = reward
+    b = make_behavior(behavior, domain, **extra)
+    settings = RunSettings(llm=llm, depth=depth, max_nodes=max_nodes, max_scenarios=scenarios,
+                           causes=causes, prior=prior, candidates=candidate or [], seed=seed,
+                           workers=workers, pictures=not no_pictures)
+    with make_progress(log, console=err_console, out=console) as progress:
+        try:
+            result = generate(b, Path(out), settings=settings, replay=replay, on_event=progress.on_event)
+        except KeyboardInterrupt:
+            err_console.print(f"[yellow]interrupted: finished scenarios are saved in {escape(out)}; "
+                              "run the same command again to resume[/]")
+            raise typer.Exit(130) from None
+    if log == "jsonl":
+        return
+    console.print(f"[bold]{result.feasible}/{len(result.outcomes)} scenarios feasible[/] "
+                  f"({escape(result.manifest.status)}); model: {result.manifest.usage.get('total', {}).get('calls', 0)} calls")
+    for o in result.outcomes:
+        mark = "[green]feasible[/]" if o.verdict.feasible else f"[red]{o.verdict.status}[/]"
+        console.print(f"  {escape(o.folder)}: {mark}: {escape(o.verdict.reason)}")
+    report = Path(out) / "report.html"
+    if report.exists():
+        console.print(f"report: {report}")
+
+
+@runs_app.command("list")
+@friendly
+def runs_list(root: str = typer.Argument(".", help="A run folder or a folder of runs")) -> None:
+    """Run folders with their behavior, status and success."""
+    import json as _json
+    from pathlib import Path
+
+    from regen.pipeline import list_runs
+
+    table = Table(title=f"runs under {root}")
+    for col in ("folder", "behavior", "domain", "status", "feasible", "started"):
+        table.add_column(col)
+    for path, m in list_runs(Path(root)):
+        feasible = "?"
+        summary = path / "summary.json"
+        if summary.exists():
+            s = _json.loads(summary.read_text())
+            feasible = f"{s.get('feasible', 0)}/{s.get('scenarios', 0)}"
+        table.add_row(escape(str(path)), escape(m.behavior.text), m.behavior.domain, m.status, feasible, m.started)
+    console.print(table)
+
+
+@runs_app.command("show")
+@friendly
+def runs_show(run: str = typer.Argument(..., help="A run folder")) -> None:
+    """The scenarios of one run with their verdicts."""
+    from pathlib import Path
+
+    from regen.core.verdict import Verdict
+    from regen.errors import RunError
+    from regen.pipeline import list_runs
+
+    found = list_runs(Path(run))
+    if not found or found[0][0] != Path(run):
+        raise RunError(f"{run} is not a run folder (no readable run.json)")
+    _, m = found[0]
+    console.print(f"[bold]{escape(m.behavior.text)}[/] ({m.behavior.domain}), status {m.status}, "
+                  f"started {m.started}")
+    table = Table()
+    for col in ("scenario", "verdict", "reason"):
+        table.add_column(col)
+    for name in m.scenarios:
+        vpath = Path(run) / "scenarios" / name / "verdict.json"
+        if vpath.exists():
+            v = Verdict.model_validate_json(vpath.read_text())
+            table.add_row(escape(name), "[green]feasible[/]" if v.feasible else f"[red]{v.status}[/]",
+                          escape(v.reason))
+        else:
+            table.add_row(escape(name), "[yellow]not finished[/]", "")
+    console.print(table)
+
+
 def _mount_eval() -> None:
     from regen.evaluation.cli import eval_command
 

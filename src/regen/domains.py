@@ -57,9 +57,15 @@ class DomainBackend(ABC):
     def render(self, scenario: Scenario, trace: Trace, verdict: Verdict, out_dir: Path) -> dict[str, Path]:
         """Pictures (GIF, PNG strip) of the run, written into ``out_dir``."""
 
-    def export(self, scenario: Scenario, out_dir: Path) -> dict[str, Path]:
-        """Files other simulators load (Scenic, OpenSCENARIO, ...). Optional."""
+    def export(self, scenario: Scenario, out_dir: Path, trace: Trace | None = None) -> dict[str, Path]:
+        """Files other simulators load (Scenic, OpenSCENARIO, ...), given the run's trace when
+        there is one. Optional."""
         return {}
+
+    def config(self, scenario: Scenario) -> dict:
+        """The scenario in the paper's config form (narrative, entities, vehicles, fsm)."""
+        return {"narrative": scenario.narrative, "causal_graph": scenario.causal_graph,
+                "fsm": scenario.fsm.as_tuples()}
 
 
 _REGISTRY: dict[str, str] = {

@@ -158,9 +158,9 @@ class Expander:
                 raise _Stop(f"max_nodes ({self.limits.max_nodes}) reached")
             self._check(graph)
             user = list(candidates) if first else []
-            root_first = [nid for nid in frontier]
             results = self.llm.map(
-                lambda nid: self._expand_one(graph, nid, user if nid == graph.root else []), root_first)
+                lambda nid, user=user: self._expand_one(graph, nid, user if nid == graph.root else []),
+                frontier)
             nxt: list[str] = []
             for res in results:
                 nxt.extend(self._apply(graph, res))
@@ -183,7 +183,7 @@ class Expander:
             lambda n: edges.select_entities(self.llm, self.db, graph.behavior.domain,
                                             self.chain(graph, n.id)), todo)
         for ev, judged in zip(todo, results, strict=True):
-            for name, reason in judged.unknown.items():
+            for name in judged.unknown:
                 bad = graph.add_node(Node(
                     id=node_id("entity", name, ev.id), kind="entity", label=name, status="rejected",
                     history=[Decision(action="rejected", by="database", call_id=judged.call_id,

@@ -1,0 +1,39 @@
+"""The executable form of a driving scenario: per actor, a pose, a route and a speed schedule.
+
+Grounding solves scalar parameters (lane, offset along the road [m], speed [m/s], trigger times
+[s]); :mod:`regen.driving.primitives` turns them into :class:`ActorPlan` values, which the Scenic
+writer prints and the property layer (:mod:`regen.driving.properties`) uses for states that the
+Newtonian model lacks (lights, sirens, doors, GNSS).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+Point = tuple[float, float]  # (x, y) [m], map frame
+
+
+@dataclass
+class ActorPlan:
+    name: str
+    asset: str
+    kind: str  # 'ego', 'agent', 'object', 'sensor'
+    cls: str  # Scenic class: 'Car', 'Pedestrian', 'Object' ('' for sensors: not in Scenic)
+    x: float  # start [m]
+    y: float  # start [m]
+    heading: float  # start heading [rad], counter-clockwise from +x
+    length: float  # [m]
+    width: float  # [m]
+    height: float  # [m]
+    speed0: float = 0.0  # initial speed [m/s]
+    route: list[Point] = field(default_factory=list)  # waypoints to follow [m]
+    # (t_from [s], target speed [m/s], brake level 0..1: >0 brakes at that level to slow down)
+    schedule: list[tuple[float, float, float]] = field(default_factory=list)
+    # property -> [(t_from [s], value)], e.g. {'door': [(0, 'closed'), (4.2, 'open')]}
+    states: dict[str, list[tuple[float, str]]] = field(default_factory=dict)
+    attach_to: str | None = None  # sensors ride on this actor
+    comment: str = ""
+
+    @property
+    def dynamic(self) -> bool:
+        return bool(self.route) and bool(self.schedule)

@@ -1,0 +1,98 @@
+"""Progress of the main job: a rich live display, quiet, or JSON lines for scripts."""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any
+
+from rich.console import Console
+from rich.live import Live
+from rich.table import Table
+
+
+class _Sink:
+    def on_event(self, ev: dict[str, Any]) -> None:  # pragma: no cover - interface
+        pass
+
+
+class QuietProgress(_Sink):
+    pass
+
+
+class JsonLinesProgress(_Sink):
+    def __init__(self, out: Console):
+        self.out = out
+
+    def on_event(self, ev: dict[str, Any]) -> None:
+        self.out.file.write(json.dumps(ev, default=str) + "\n")
+        self.out.file.flush()
+
+
+class RichProgress(_Sink):
+    """Stage, scenarios done/total, model calls, tokens, cache hits, elapsed and ETA."""
+
+    def __init__(self, console: Console):
+        self.console = console
+        self.start = time.perf_counter()
+        self.stage = "starting"
+        self.total = 0
+        self.done = 0
+        self.feasible = 0
+        self.calls = 0
+        self.cached = 0
+        self.tokens = 0
+        self.current = ""
+        self.scenario_started: float | None = None
+        self.durations: list[float] = []
+        self.live = Live(self._render(), console=console, refresh_per_second=4, transient=False)
+
+    def _render(self) -> Table:
+        elapsed = time.perf_counter() - self.start
+        eta = "?"
+        left = self.total - self.done
+        if self.durations and left > 0:
+            eta = f"{left * (sum(self.durations) / len(self.durations)):.0f} s"
+        elif self.total and left == 0:
+            eta = "0 s"
+        t = Table.grid(padding=(0, 2))
+        t.add_row("[bold]stage[/]", self.stage + (f" ({self.current})" if self.current else ""))
+        t.add_row("[bold]scenarios[/]", f"{self.done}/{self.total or '?'} done, {self.feasible} feasible")
+        t.add_row("[bold]model[/]", f"{self.calls} calls, {self.cached} cached, {self.tokens} tokens")
+        t.add_row("[bold]time[/]", f"{elapsed:.0f} s elapsed, ETA {eta}")
+        return t
+
+    def on_event(self, ev: dict[str, Any]) -> None:
+        kind = ev["event"]
+        if kind == "stage":
+            self.stage = ev["stage"]
+            self.current = ""
+        elif kind == "llm_call":
+            self.calls += 1
+            self.cached += bool(ev.get("cached"))
+            self.tokens += int(ev.get("tokens", 0))
+        elif kind == "paths":
+            self.total = ev["total"]
+        elif kind in ("grounding", "simulating"):
+            self.current = ev["name"]
+            self.scenario_started = time.perf_counter()
+        elif kind == "scenario_done":
+            self.done += 1
+            self.feasible += bool(ev.get("feasible"))
+            if self.scenario_started is not None and not ev.get("skipped"):
+                self.durations.append(time.perf_counter() - self.scenario_started)
+        self.live.update(self._render())
+
+
+@contextmanager
+def make_progress(mode: str, *, console: Console, out: Console) -> Iterator[_Sink]:
+    if mode == "quiet":
+        yield QuietProgress()
+    elif mode == "jsonl":
+        yield JsonLinesProgress(out)
+    else:
+        sink = RichProgress(console)
+        with sink.live:
+            yield sink

@@ -1,0 +1,26 @@
+from regen.driving.ego import EGO_TEMPLATES
+from regen.driving.solve import ActorSpec, solve
+
+
+def test_pedestrian_crosses_ahead_of_where_the_ego_stops():
+    t = EGO_TEMPLATES["stop_abruptly"]
+    sol = solve(t, [ActorSpec("child1", "child", "cross_the_road", "roadside_ahead", "moderate",
+                              (0.4, 0.4, 1.2))])
+    assert sol.report.status in ("optimal", "feasible")
+    p = sol.params["child1"]
+    assert p["s"] > t.s_end + 2.3  # path beyond the ego's front bumper at rest
+    assert 1.2 <= p["v"] <= 1.8
+    reach = 8.0 - 1.75 - 1.75  # sidewalk centre to the ego lane's near edge [m]
+    assert t.t_event - 1.8 <= p["t"] + reach / p["v"] <= t.t_event - 0.2 + 0.05
+
+
+def test_infeasible_model_names_only_the_conflict():
+    t = EGO_TEMPLATES["stop_abruptly"]
+    sol = solve(t, [
+        ActorSpec("sedan1", "sedan", "drive_forward", "ahead_same_lane", "slow", (4.6, 1.9, 1.5)),
+        ActorSpec("debris1", "debris", "stationary", "roadside_ahead", "slow", (1.0, 1.0, 0.3)),
+    ])
+    assert sol.report.status == "infeasible"
+    assert sol.report.conflicts
+    assert all(c.startswith("sedan1:") for c in sol.report.conflicts)
+    assert any("as fast as the ego" in c for c in sol.report.conflicts)
