@@ -42,7 +42,7 @@ def _llm(model: ScriptedModel, run: Path, **kw) -> LLM:
 
 def test_run_folder_has_verdicts_graph_and_manifest(tmp_path: Path) -> None:
     run = tmp_path / "run"
-    res = generate(Behavior(text=STOP, domain="driving"), run, settings=RunSettings(max_scenarios=4),
+    res = generate(Behavior(text=STOP, domain="driving"), run, settings=RunSettings(max_scenarios=4, causes=4),
                    llm=_llm(_model(), run))
     by = {o.folder.split("-", 1)[1]: o.verdict for o in res.outcomes}
     assert by["a-jaywalker-walked-in-front"].feasible
@@ -67,14 +67,14 @@ def test_interrupted_run_resumes_without_redoing_work(tmp_path: Path) -> None:
     behavior = Behavior(text=STOP, domain="driving")
     FakeBackend.interrupt_on = "debris"  # the third scenario to simulate
     with pytest.raises(KeyboardInterrupt):
-        generate(behavior, run, settings=RunSettings(max_scenarios=4, pictures=False), llm=_llm(_model(), run))
+        generate(behavior, run, settings=RunSettings(max_scenarios=4, causes=4, pictures=False), llm=_llm(_model(), run))
     assert json.loads((run / "run.json").read_text())["status"] == "interrupted"
     done_before = list(FakeBackend.simulated)
     assert len(done_before) == 2
 
     model = _model()
     llm = _llm(model, run)
-    res = generate(behavior, run, settings=RunSettings(max_scenarios=4, pictures=False), llm=llm)
+    res = generate(behavior, run, settings=RunSettings(max_scenarios=4, causes=4, pictures=False), llm=llm)
     assert llm.stats.total.model_calls == 0 and model.kinds == []  # every answer from the run's cache
     assert FakeBackend.simulated[len(done_before):] == ["A debris makes the ego stop."]  # only what was left
     assert sum(o.skipped for o in res.outcomes) == 3  # two simulated + the grounding failure

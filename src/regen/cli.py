@@ -224,7 +224,7 @@ def generate_cmd(
     depth: int = typer.Option(1, "--depth", min=1, max=6, help="Event layers behind the behavior"),
     max_nodes: int = typer.Option(8, "--max-nodes", min=1, help="Most cause events to accept"),
     scenarios: int = typer.Option(3, "--scenarios", "-n", min=1, help="Most scenarios to simulate"),
-    causes: int = typer.Option(4, "--causes", min=1, max=12, help="Causes proposed per event"),
+    causes: int = typer.Option(3, "--causes", min=1, max=12, help="Causes proposed per event"),
     prior: str = typer.Option(None, "--prior", help="Steer proposals, e.g. 'police car'"),
     candidate: list[str] = typer.Option(None, "--candidate", help="A cause to judge too (repeatable)"),
     template: str = typer.Option(None, "--ego", help="Driving: ego behavior template (default: from the text)"),

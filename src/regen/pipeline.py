@@ -40,7 +40,8 @@ class RunSettings(Model):
     depth: int = 1
     max_nodes: int = 8
     max_scenarios: int = 3
-    causes: int = 4
+    causes: int = 3
+    max_entities: int = 2  # entities kept per event
     prior: str | None = None
     candidates: list[str] = Field(default_factory=list)
     seed: int = 0
@@ -199,7 +200,8 @@ def generate(behavior: Behavior, out: Path, *, settings: RunSettings | None = No
         # --- expand ---------------------------------------------------------------------------
         emit("stage", stage="expand")
         t0 = time.perf_counter()
-        limits = Limits(max_depth=settings.depth, max_nodes=settings.max_nodes, max_causes=settings.causes)
+        limits = Limits(max_depth=settings.depth, max_nodes=settings.max_nodes, max_causes=settings.causes,
+                        max_entities=settings.max_entities)
         graph = expand(behavior, llm, database=backend.database(), limits=limits, prior=settings.prior,
                        candidates=settings.candidates,
                        on_update=lambda g, what: (write_json(out / "graph.json", g),

@@ -3,7 +3,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import pytest
+from fake_expansion_model import ScriptedModel
 
 from regen.core.behavior import Behavior
 from regen.core.graph import ScenarioGraph
@@ -11,8 +11,6 @@ from regen.expand import Limits, expand
 from regen.expand.run import run_expand
 from regen.llm import LLM
 from regen.llm.testing import FunctionProvider
-
-from fake_expansion_model import ScriptedModel
 
 STOP = "the ego-vehicle stops abruptly"
 

@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+import json
 import threading
 import time
 from pathlib import Path
@@ -7,7 +8,12 @@ from pathlib import Path
 import pytest
 
 from regen.core.base import Answer
-from regen.errors import CacheCorruptedError, CacheMissError, MalformedAnswerError, UnknownProviderError
+from regen.errors import (
+    CacheCorruptedError,
+    CacheMissError,
+    MalformedAnswerError,
+    UnknownProviderError,
+)
 from regen.llm import LLM, get_provider
 from regen.llm.base import Completion, Provider, Sampling
 from regen.llm.cache import CallCache
@@ -94,7 +100,7 @@ class _SlowProvider(Provider):
         time.sleep(0.05)
         with self.lock:
             self.active -= 1
-        return Completion(text='{"causes": ["%s"]}' % messages[-1]["content"])
+        return Completion(text=json.dumps({"causes": [messages[-1]["content"]]}))
 
 
 def test_map_runs_independent_calls_concurrently_within_the_limit() -> None:

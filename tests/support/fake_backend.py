@@ -5,7 +5,17 @@ from __future__ import annotations
 from pathlib import Path
 
 from regen.assets import load_database
-from regen.core import FSM, AbstractState, ActorTrack, Entity, PredicateCall, Scenario, Stage, StateRef, Trace
+from regen.core import (
+    FSM,
+    AbstractState,
+    ActorTrack,
+    Entity,
+    PredicateCall,
+    Scenario,
+    Stage,
+    StateRef,
+    Trace,
+)
 from regen.domains import DomainBackend, SimulationOutput
 
 

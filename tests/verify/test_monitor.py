@@ -2,7 +2,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from regen.core import FSM, AbstractState, ActorTrack, Behavior, Entity, PredicateCall, Scenario, Stage, StateRef, Trace
+from regen.core import (
+    FSM,
+    AbstractState,
+    ActorTrack,
+    Behavior,
+    Entity,
+    PredicateCall,
+    Scenario,
+    Stage,
+    StateRef,
+    Trace,
+)
 from regen.verify import check_fsm, validate_fsm
 
 

@@ -61,7 +61,7 @@ def _wrap(text: str, width: int = 22) -> str:
             cur = f"{cur} {w}".strip()
     if cur:
         lines.append(cur)
-    return "\n".join(lines[:4]) + ("…" if len(lines) > 4 else "")
+    return "\n".join(lines[:5]) + ("…" if len(lines) > 5 else "")
 
 
 def _color(graph: ScenarioGraph, nid: str) -> tuple[str, float]:
@@ -70,14 +70,47 @@ def _color(graph: ScenarioGraph, nid: str) -> tuple[str, float]:
     return (base, 1.0) if n.status in ("accepted", "pending") else (MUTED, 0.55)
 
 
+def compact(graph: ScenarioGraph) -> ScenarioGraph:
+    """The graph for a static picture: each entity's chosen property values become one node and
+    its rejected values one muted summary node, so the picture stays readable; the interactive
+    page keeps every node."""
+    from regen.core.graph import Decision, Edge, Node, node_id
+
+    g = graph.model_copy(deep=True)
+    chosen: dict[str, list[str]] = {}
+    dropped: dict[str, list[str]] = {}
+    for n in list(g.nodes.values()):
+        if n.kind != "property":
+            continue
+        target = next((e.target for e in g.edges if e.source == n.id), None)
+        if target is None:
+            continue
+        (chosen if n.status == "accepted" else dropped).setdefault(target, []).append(n.label)
+        del g.nodes[n.id]
+    g.edges = [e for e in g.edges if e.source in g.nodes and e.target in g.nodes]
+    for ent, labels in chosen.items():
+        node = Node(id=node_id("property", "chosen", ent), kind="property", status="accepted",
+                    label="; ".join(labels), history=[Decision(action="accepted", by="model")])
+        g.nodes[node.id] = node
+        g.edges.append(Edge(source=node.id, target=ent, kind="describes"))
+    for ent, labels in dropped.items():
+        node = Node(id=node_id("property", "not chosen", ent), kind="property", status="rejected",
+                    label=f"not chosen ({len(labels)}): " + ", ".join(labels[:3]) + (" ..." if len(labels) > 3 else ""),
+                    history=[Decision(action="rejected", by="model")])
+        g.nodes[node.id] = node
+        g.edges.append(Edge(source=node.id, target=ent, kind="describes", status="rejected"))
+    return g
+
+
 def draw_png(graph: ScenarioGraph, path: Path, *, dpi: int = 110) -> Path:
-    """Static picture of the graph (PNG or SVG by suffix)."""
+    """Static picture of the graph (PNG or SVG by suffix), rejected property values summarized."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
 
+    graph = compact(graph)
     pos = layout(graph)
     ncols = max(int(x) for x, _ in pos.values()) + 1
     nrows = max(int(y) for _, y in pos.values()) + 1
@@ -93,7 +126,7 @@ def draw_png(graph: ScenarioGraph, path: Path, *, dpi: int = 110) -> Path:
         n = graph.nodes[nid]
         color, alpha = _color(graph, nid)
         style = {"event": "round,pad=0.35", "entity": "square,pad=0.35", "property": "round4,pad=0.3"}[n.kind]
-        label = _wrap(n.label)
+        label = _wrap(n.label, 30) if n.kind == "property" else _wrap(n.label)
         if n.status == "unsimulatable":
             label += "\n(not simulatable)"
         elif n.status == "rejected":

@@ -1,0 +1,126 @@
+"""Record the offline model's real answers as JSON cassettes for the replay tests.
+
+Usage: python scripts/record_cassettes.py [expand] [generate] [ground] [--llm local]
+
+Prompts are part of each cache key: after changing a prompt template or an answer schema, run
+this again and commit the new cassettes under tests/data/cassettes/.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+from regen.core.behavior import Behavior
+from regen.expand import Limits, expand
+from regen.llm import LLM
+from regen.llm.cache import CallCache
+
+OUT = Path(__file__).resolve().parents[1] / "tests" / "data" / "cassettes"
+
+EXPANSIONS = {
+    "expand_driving": (Behavior(text="the ego-vehicle stops abruptly while driving forward", domain="driving"),
+                       Limits(max_depth=1, max_causes=3)),
+    "expand_manipulation": (Behavior(text="the robot opens the door", domain="manipulation", reward="open_door"),
+                            Limits(max_depth=1, max_causes=3)),
+}
+GENERATE = ("generate_driving", Behavior(text="the ego-vehicle stops abruptly while driving forward",
+                                         domain="driving"))
+
+
+def record_expansions(llm_spec: str) -> None:
+    for name, (behavior, limits) in EXPANSIONS.items():
+        cache = CallCache(None)
+        llm = LLM(llm_spec, cache=cache)
+        t0 = time.perf_counter()
+        g = expand(behavior, llm, limits=limits)
+        n = cache.export_json(OUT / f"{name}.json")
+        print(f"{name}: {n} answers, {len(g.paths())} paths, {time.perf_counter() - t0:.0f} s; "
+              f"{llm.stats.summary()}")
+
+
+def record_generate(llm_spec: str) -> None:
+    from regen.pipeline import RunSettings, generate
+
+    name, behavior = GENERATE
+    run = Path(tempfile.mkdtemp(prefix="regen-record-"))
+    try:
+        t0 = time.perf_counter()
+        res = generate(behavior, run, settings=RunSettings(llm=llm_spec, max_scenarios=2, pictures=False))
+        n = CallCache(run / "llm-cache.sqlite").export_json(OUT / f"{name}.json")
+        print(f"{name}: {n} answers, {res.feasible}/{len(res.outcomes)} feasible, "
+              f"{time.perf_counter() - t0:.0f} s")
+        for o in res.outcomes:
+            print(f"    {o.folder}: {o.verdict.status}: {o.verdict.reason}")
+    finally:
+        shutil.rmtree(run, ignore_errors=True)
+
+
+# Driving cause paths for model grounding (tests/driving/test_llm_ground.py replays them).
+GROUND_PATHS = {
+    "jaywalker": ("stop_abruptly", "the ego-vehicle stops abruptly while driving forward",
+                  "a pedestrian jaywalks across the road in front of the ego-vehicle",
+                  "adult", {"behavior": ["cross_the_road"],
+                            "start_location": ["on the sidewalk ahead of the ego-vehicle"]}),
+    "ambulance": ("change_lane", "the ego-vehicle changes lanes while driving forward",
+                  "an ambulance with its siren on approaches from behind",
+                  "ambulance", {"siren": ["on"], "behavior": ["drive_forward"],
+                                "start_location": ["behind the ego-vehicle in the same lane"]}),
+    "red_light": ("stop_in_intersection", "the ego-vehicle stops abruptly in an intersection",
+                  "the traffic light turns red as the ego-vehicle enters the intersection",
+                  "traffic_light", {"light_state": ["turns_red"]}),
+}
+
+
+def ground_paths() -> dict:
+    from regen.core.graph import CausePath, PathEntity
+
+    out = {}
+    for key, (template, text, cause, asset, props) in GROUND_PATHS.items():
+        behavior = Behavior(text=text, domain="driving", ego_template=template)
+        out[key] = CausePath(behavior=behavior, events=[cause, text],
+                             entities=[PathEntity(asset=asset, event=cause, properties=props)])
+    return out
+
+
+def record_ground(llm_spec: str) -> None:
+    """Ground the paths with the model; write the paths and the answers (two files)."""
+    import json
+
+    from regen.driving.llm_ground import ground_with_model
+
+    cache = CallCache(None)
+    llm = LLM(llm_spec, cache=cache)
+    paths = ground_paths()
+    (OUT / "ground_driving_paths.json").write_text(json.dumps(
+        {k: p.model_dump(mode="json") for k, p in paths.items()}, indent=1))
+    for key, path in paths.items():
+        t0 = time.perf_counter()
+        sc = ground_with_model(path, llm)
+        print(f"ground {key}: {sc.world['grounder']} (model: {sc.world['model_parts']}), "
+              f"{time.perf_counter() - t0:.0f} s; fsm {sc.fsm.as_tuples()}")
+        for note in sc.solver.relaxations:
+            print(f"    {note}")
+    n = cache.export_json(OUT / "ground_driving.json")
+    print(f"ground_driving: {n} answers; {llm.stats.summary()}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("what", nargs="*", default=["expand", "generate", "ground"])
+    ap.add_argument("--llm", default="local")
+    args = ap.parse_args()
+    OUT.mkdir(parents=True, exist_ok=True)
+    if "expand" in args.what:
+        record_expansions(args.llm)
+    if "generate" in args.what:
+        record_generate(args.llm)
+    if "ground" in args.what:
+        record_ground(args.llm)
+
+
+if __name__ == "__main__":
+    main()

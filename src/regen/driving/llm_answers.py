@@ -1,0 +1,403 @@
+"""Answer schemas for model grounding, built per cause path, and the checks behind them.
+
+Two small, flat schemas (the offline model is a 1.5B model with schema-constrained decoding):
+
+* roles: a narrative plus, per actor, ``<actor>_behavior``, ``<actor>_start`` and
+  ``<actor>_speed``, each a ``Literal`` of what the asset supports, the primitive library
+  implements and the ego's map can host;
+* FSM: a list of abstract states ``{"stage", "actor", "name", "holds"}``. Each state carries the
+  number of the stage it belongs to, so a stage can never name a state that does not exist;
+  ``holds`` are 1-3 predicate calls written as ``name(a, b, param=value)`` with an optional
+  leading ``not``. The JSON schema carries a regex over the exact predicate and actor names, so
+  constrained decoding can only write known calls; the validators here parse them (nothing is
+  ever evaluated) and check arity, parameters, and whether the call can hold at all for the
+  chosen primitive and properties.
+
+Validators raise ``ValueError`` with a message that says what is allowed: the LLM layer sends
+it back to the model as a re-ask.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Annotated, Any, Literal
+
+from pydantic import Field, create_model, field_validator, model_validator
+
+from regen.assets.database import AssetDatabase
+from regen.core.base import Answer
+from regen.core.scenario import FSM, AbstractState, PredicateCall, Stage, StateRef
+from regen.driving.ego import EgoTemplate
+from regen.driving.fsm_rules import RoleChoice
+from regen.driving.maps import geometry
+from regen.driving.primitives import PEDESTRIAN_ASSETS, PRIMITIVE_LOCATIONS
+from regen.driving.solve import STATE_ONLY
+from regen.errors import GroundingError
+from regen.verify.predicates import PredicateSpec, list_predicates
+
+SPEED_CLASSES = ("slow", "moderate", "fast")
+MAX_STATES = 8
+MAX_STAGES = 6
+NARRATIVE_CHARS = 400  # [characters]
+# Left out of the model's menu: `state_is` duplicates the property predicates with free-text
+# keys, and `collided` asks for a crash that placements are solved to avoid.
+HIDDEN_PREDICATES = {"state_is", "collided"}
+LIGHT_VALUES = ("red", "yellow", "green", "off")
+_STATE_NAME = re.compile(r"^[a-z][a-z0-9_]{0,31}$")
+_CALL = re.compile(r"^(not )?([a-z_]+)\(([a-z0-9_]+)(?:, ?([a-z0-9_]+))?"
+                   r"(?:, ?([a-z_]+)=([a-z0-9.]+))?\)$")
+# Primitives whose actor moves; lane changes and turns are the ones that leave their lane line.
+_MOVING_PRIMITIVES = {"drive_forward", "change_lane", "cut_in", "turn_left", "turn_right",
+                      "run_red_light", "cross_the_road", "walk_along"}
+_LANE_VEHICLE_PRIMITIVES = {"drive_forward", "change_lane", "cut_in", "turn_left", "turn_right",
+                            "run_red_light"}
+_SIDEWAYS_PRIMITIVES = {"change_lane", "cut_in", "turn_left", "turn_right"}
+_PROPERTY_PREDICATES = {"siren_on", "door_open", "hazard_lights_on", "light_is", "signal_degraded"}
+_MOTION_PREDICATES = {"moving", "braking", "accelerating", "steady", "turning", "changing_lane"}
+
+
+def menu(domain: str = "driving") -> list[PredicateSpec]:
+    """The predicates the model may choose from."""
+    return [s for s in list_predicates(domain) if s.name not in HIDDEN_PREDICATES]
+
+
+# --- roles ------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class RoleOptions:
+    """What the model may choose for one actor (empty tuples: nothing to choose)."""
+
+    name: str
+    asset: str
+    primitives: tuple[str, ...]
+    locations: dict[str, tuple[str, ...]]  # primitive -> start locations the map can host
+    moves: bool  # whether a speed class means anything
+
+    @property
+    def all_locations(self) -> tuple[str, ...]:
+        seen: dict[str, None] = {}
+        for locs in self.locations.values():
+            seen.update(dict.fromkeys(locs))
+        return tuple(seen)
+
+
+def role_options(role: RoleChoice, db: AssetDatabase, template: EgoTemplate) -> RoleOptions:
+    """The primitives and start locations ``role``'s asset supports on the ego's possible maps."""
+    from regen.driving.ground import choose_map
+
+    if role.asset in STATE_ONLY:
+        return RoleOptions(role.name, role.asset, (), {}, False)
+    locations: dict[str, tuple[str, ...]] = {}
+    for prim in db.assets[role.asset].behaviors:
+        ok = []
+        for loc in PRIMITIVE_LOCATIONS.get(prim, ()):
+            trial = RoleChoice(role.name, role.asset, prim, loc, role.speed_class, {})
+            try:
+                choose_map(template, [trial])
+            except GroundingError:
+                continue
+            ok.append(loc)
+        if ok:
+            locations[prim] = tuple(ok)
+    return RoleOptions(role.name, role.asset, tuple(locations), locations,
+                       any(p in _MOVING_PRIMITIVES for p in locations))
+
+
+def _lit(values: tuple[str, ...]) -> Any:
+    return Literal[values]  # type: ignore[valid-type]
+
+
+def role_schema(options: list[RoleOptions], defaults: list[RoleChoice],
+                template: EgoTemplate) -> type[Answer]:
+    """The per-path roles schema: ``narrative`` and per actor behavior, start and speed.
+
+    ``defaults`` (the rule-based roles, same order as ``options``) fill what the model does
+    not choose (state-only objects, single options).
+    """
+    from regen.driving.ground import choose_map
+
+    fields: dict[str, Any] = {"narrative": (Annotated[str, Field(
+        min_length=10, max_length=NARRATIVE_CHARS,
+        description="one or two sentences: what happens and why the ego reacts")], ...)}
+    for o in options:
+        if len(o.primitives) > 1:
+            fields[f"{o.name}_behavior"] = (_lit(o.primitives), ...)
+        if len(o.all_locations) > 1:
+            fields[f"{o.name}_start"] = (_lit(o.all_locations), ...)
+        if o.moves:
+            fields[f"{o.name}_speed"] = (_lit(SPEED_CLASSES), ...)
+
+    def _check(self: Any) -> Any:
+        problems = []
+        for o, d in zip(options, defaults, strict=True):
+            prim, loc, _ = pick(self, o, d)
+            allowed = o.locations.get(prim, ())
+            if allowed and loc not in allowed:
+                problems.append(f"{o.name}_start {loc!r} does not suit {o.name}_behavior "
+                                f"{prim!r}; {prim} starts at: {', '.join(allowed)}")
+        if problems:
+            raise ValueError("; ".join(problems))
+        try:
+            choose_map(template, chosen_roles(self, options, defaults))
+        except GroundingError as exc:
+            raise ValueError(f"{exc}; choose other start locations") from None
+        return self
+
+    return create_model("GroundRoles", __base__=Answer,
+                        __validators__={"_check": model_validator(mode="after")(_check)},
+                        **fields)
+
+
+def pick(answer: Any, o: RoleOptions, default: RoleChoice) -> tuple[str, str, str]:
+    """(primitive, start location, speed class) of one actor in a roles answer."""
+    if not o.primitives:
+        return default.primitive, default.location, default.speed_class
+    prim = getattr(answer, f"{o.name}_behavior", None) or o.primitives[0]
+    loc = getattr(answer, f"{o.name}_start", None)
+    if loc is None:
+        locs = o.locations.get(prim, ())
+        loc = default.location if default.location in locs or not locs else locs[0]
+    speed = getattr(answer, f"{o.name}_speed", None) or default.speed_class
+    return prim, loc, speed
+
+
+def chosen_roles(answer: Any, options: list[RoleOptions], defaults: list[RoleChoice]) -> list[RoleChoice]:
+    """The roles a (validated) roles answer describes; properties stay those of the path."""
+    out = []
+    for o, d in zip(options, defaults, strict=True):
+        prim, loc, speed = pick(answer, o, d)
+        out.append(RoleChoice(d.name, d.asset, prim, loc, speed, dict(d.properties)))
+    return out
+
+
+# --- FSM --------------------------------------------------------------------------------------
+
+
+def call_pattern(specs: list[PredicateSpec], actors: list[str]) -> str:
+    """The regex of a predicate call over exact predicate and actor names (for the schema)."""
+    who = "(" + "|".join(re.escape(a) for a in actors) + ")"
+    unary = "|".join(s.name for s in specs if s.arity == 1)
+    binary = "|".join(s.name for s in specs if s.arity == 2)
+    param = r"(, [a-z_]+=[a-z0-9.]+)?"
+    return rf"^(not )?(({unary})\({who}|({binary})\({who}, {who}){param}\)$"
+
+
+def parse_call(text: str, specs: dict[str, PredicateSpec], actors: list[str]) -> PredicateCall:
+    """One written call, e.g. ``not in_front(sedan1, ego, distance=20)``, as a PredicateCall."""
+    m = _CALL.match(" ".join(text.split()))
+    if m is None:
+        raise ValueError(f"{text!r} is not a predicate call; write name(actor) or "
+                         "name(actor, actor), optionally with one param=value and a leading 'not '")
+    neg, name, a, b, key, val = m.groups()
+    spec = specs.get(name)
+    if spec is None:
+        raise ValueError(f"{text!r}: {name!r} is not a predicate of this scenario; choose from "
+                         f"{', '.join(specs)}")
+    args = [x for x in (a, b) if x is not None]
+    if len(args) != spec.arity:
+        raise ValueError(f"{text!r}: {name} takes {spec.arity} actor(s): {spec.signature()}")
+    bad = [x for x in args if x not in actors]
+    if bad:
+        raise ValueError(f"{text!r}: unknown actor {bad[0]!r}; the actors are {', '.join(actors)}")
+    if len(args) == 2 and args[0] == args[1]:
+        raise ValueError(f"{text!r} compares {args[0]} with itself; name two different actors")
+    params: dict[str, float | str] = {}
+    if key is not None:
+        if key not in spec.params:
+            allowed = ", ".join(spec.params) or "none"
+            raise ValueError(f"{text!r}: {name} has no parameter {key!r} (it takes: {allowed})")
+        params[key] = _param_value(text, name, key, val, spec.params[key])
+    return PredicateCall(name=name, args=args, params=params, negate=neg is not None)
+
+
+def _param_value(text: str, name: str, key: str, val: str, default: float | str) -> float | str:
+    if isinstance(default, str):
+        if name == "light_is" and val not in LIGHT_VALUES:
+            raise ValueError(f"{text!r}: value must be one of {', '.join(LIGHT_VALUES)}")
+        return val
+    try:
+        num = float(val)
+    except ValueError:
+        raise ValueError(f"{text!r}: {key} must be a number") from None
+    if not 0.0 <= num <= 200.0:
+        raise ValueError(f"{text!r}: {key} must lie between 0 and 200")
+    return num
+
+
+def _light_values(role: RoleChoice, template: EgoTemplate) -> set[str]:
+    from regen.driving.ground import _state_schedules
+
+    sched = _state_schedules(role, {}, template).get("light_state", [])
+    return {str(v) for _, v in sched}
+
+
+def never_holds(call: PredicateCall, roles: dict[str, RoleChoice], template: EgoTemplate) -> str | None:
+    """Why ``call`` (not negated) can never hold in the simulated scenario, or None.
+
+    Conservative: it names only what the primitives, properties and map rule out for sure.
+    """
+    if call.negate:
+        return None
+    a = call.args[0] if call.args else ""
+    name = call.name
+    junction = geometry(template.map).junction
+    if name == "in_junction" and not junction:
+        return f"{call} never holds: the map ({template.map}) has no junction"
+    if a == "ego":
+        return _ego_never(call, template)
+    r = roles.get(a)
+    if r is None:
+        return None
+    props = r.properties
+    if r.asset in STATE_ONLY:
+        still = r.asset == "traffic_light"  # sensors ride on the ego and move with it
+    else:
+        still = r.primitive not in _MOVING_PRIMITIVES
+    if name in _MOTION_PREDICATES and still:
+        return f"{call} never holds: {a} ({r.asset}) does not move"
+    if name == "changing_lane" and r.primitive not in _SIDEWAYS_PRIMITIVES:
+        return f"{call} never holds: {a} ({r.primitive}) keeps its line"
+    if name == "turning" and r.primitive not in ("turn_left", "turn_right"):
+        return f"{call} never holds: {a} ({r.primitive}) does not turn"
+    if name == "on_sidewalk" and r.primitive in _LANE_VEHICLE_PRIMITIVES:
+        return f"{call} never holds: {a} drives in the lanes"
+    if name == "siren_on" and props.get("siren") != "on":
+        return f"{call} never holds: {a} has no siren switched on (siren={props.get('siren', 'unset')})"
+    if name == "door_open" and props.get("door") not in ("open", "opens"):
+        return f"{call} never holds: {a}'s door stays closed"
+    if name == "hazard_lights_on" and props.get("hazard_lights") != "on":
+        return f"{call} never holds: {a} has no hazard lights on"
+    if name == "brake_lights_on" and (r.asset in PEDESTRIAN_ASSETS or r.asset in STATE_ONLY
+                                      or still or props.get("brake_lights") == "broken"):
+        return f"{call} never holds: {a} shows no brake lights"
+    if name == "light_is":
+        if r.asset != "traffic_light":
+            return f"{call} never holds: {a} is not a traffic light"
+        values = _light_values(r, template)
+        want = str(call.params.get("value", "red"))
+        if want not in values:
+            shown = ", ".join(sorted(values)) or "nothing"
+            return f"{call} never holds: {a} shows {shown}"
+    if name == "signal_degraded":
+        bad = {k: v for k, v in props.items() if k in ("gnss_signal", "camera_view")
+               and v not in ("nominal", "clear")}
+        if not bad:
+            return f"{call} never holds: {a} has no degraded signal"
+    return None
+
+
+def _ego_never(call: PredicateCall, t: EgoTemplate) -> str | None:
+    name = call.name
+    why = f"{call} never holds: the ego {t.description}"
+    if name == "turning" and t.id != "stop_after_turn":
+        return why
+    if name == "changing_lane" and t.id not in ("change_lane", "stop_after_turn"):
+        return why
+    if name == "stopped" and t.id in ("slow_down", "change_lane"):
+        return why
+    if name == "braking" and t.id in ("drive_forward", "change_lane"):
+        return why
+    if name == "in_junction" and t.id == "stop_abruptly":
+        return why + " and stops before any junction"
+    if name == "on_sidewalk":
+        return why
+    if name in _PROPERTY_PREDICATES:
+        return f"{call} never holds: the ego has no such property in this toolkit"
+    return None
+
+
+def available(roles: list[RoleChoice], template: EgoTemplate) -> list[PredicateSpec]:
+    """The menu without predicates that can hold for no actor of this scenario (no siren
+    predicate without a siren), so the prompt stays short and the choice easier."""
+    actors = ["ego"] + [r.name for r in roles]
+    by_name = {r.name: r for r in roles}
+    out = []
+    for spec in menu():
+        for a in actors:
+            other = [x for x in actors if x != a][:1]
+            if spec.arity == 2 and not other:
+                continue
+            call = PredicateCall(name=spec.name, args=[a] + other[: spec.arity - 1])
+            if spec.name == "light_is":
+                r = by_name.get(a)
+                if r is None or r.asset != "traffic_light" or not _light_values(r, template):
+                    continue
+            elif never_holds(call, by_name, template) is not None:
+                continue
+            out.append(spec)
+            break
+    return out
+
+
+def fsm_schema(roles: list[RoleChoice], template: EgoTemplate) -> type[Answer]:
+    """The per-path FSM schema: states with their stage number and predicate calls."""
+    actors = ["ego"] + [r.name for r in roles]
+    by_name = {r.name: r for r in roles}
+    specs = {s.name: s for s in available(roles, template)}
+    pattern = call_pattern(list(specs.values()), actors)
+    Actor = _lit(tuple(actors))
+    CallText = Annotated[str, Field(json_schema_extra={"pattern": pattern})]
+
+    class State(Answer):
+        stage: _lit(tuple(range(1, MAX_STAGES + 1)))  # type: ignore[valid-type]
+        actor: Actor  # type: ignore[valid-type]
+        name: Annotated[str, Field(json_schema_extra={"pattern": _STATE_NAME.pattern})]
+        holds: list[CallText] = Field(min_length=1, max_length=3)  # type: ignore[valid-type]
+
+        @field_validator("name")
+        @classmethod
+        def _name(cls, v: str) -> str:
+            if not _STATE_NAME.match(v):
+                raise ValueError(f"state name {v!r}: use lower-case letters, digits and '_' "
+                                 "(at most 32), starting with a letter")
+            return v
+
+        @model_validator(mode="after")
+        def _calls(self) -> State:
+            problems = []
+            for text in self.holds:
+                call = parse_call(text, specs, actors)
+                why = never_holds(call, by_name, template)
+                if why:
+                    problems.append(why)
+            if problems:
+                raise ValueError(f"state {self.name!r} of {self.actor}: " + "; ".join(problems)
+                                 + "; choose predicates that can hold")
+            return self
+
+    class GroundFSM(Answer):
+        states: list[State] = Field(min_length=2, max_length=MAX_STATES)
+
+        @model_validator(mode="after")
+        def _whole(self) -> GroundFSM:
+            seen: set[tuple[str, str]] = set()
+            for s in self.states:
+                if (s.actor, s.name) in seen:
+                    raise ValueError(f"{s.actor} has two states named {s.name!r}; rename one")
+                seen.add((s.actor, s.name))
+            missing = [a for a in actors if a not in {s.actor for s in self.states}]
+            if missing:
+                raise ValueError(f"no state for {', '.join(missing)}: give every actor, the ego "
+                                 "included, at least one state")
+            if len({s.stage for s in self.states}) < 2:
+                raise ValueError("all states share one stage; use stage numbers to order them "
+                                 "(1 at the start, higher later)")
+            return self
+
+        def to_fsm(self) -> FSM:
+            return answer_fsm(self, specs, actors)
+
+    return GroundFSM
+
+
+def answer_fsm(answer: Any, specs: dict[str, PredicateSpec], actors: list[str]) -> FSM:
+    """The FSM of a validated answer: stages in order of their numbers (gaps closed)."""
+    states = [AbstractState(name=s.name, actor=s.actor,
+                            all_of=[parse_call(c, specs, actors) for c in s.holds])
+              for s in answer.states]
+    numbers = sorted({s.stage for s in answer.states})
+    stages = [Stage(conditions=[StateRef(actor=s.actor, state=s.name) for s in answer.states
+                                if s.stage == k]) for k in numbers]
+    return FSM(states=states, stages=stages)

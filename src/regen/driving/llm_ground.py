@@ -1,0 +1,276 @@
+"""Model grounding of a driving cause path: the model writes the roles, narrative and FSM.
+
+Two calls per path, each with a small flat schema built for that path
+(:mod:`regen.driving.llm_answers`): (1) the narrative and, per actor, its motion primitive,
+start location and speed class; (2) the FSM as abstract states over the fixed predicate
+library, each with its stage number. Everything is validated; the LLM layer re-asks on a
+validation error. What is still unusable after that falls back to the rule-based part:
+
+* roles: the rule-based roles when the answer never validated, when no map can host the
+  model's roles, or when their placement is infeasible but the rule-based one is not;
+* narrative: the chain of events as a sentence;
+* FSM: :func:`regen.driving.fsm_rules.rule_based_fsm` when the answer never validated or the
+  monitor's own check rejects it.
+
+What came from where is recorded in ``scenario.world`` (``grounder`` = ``model`` |
+``model+rules`` | ``rule-based``; ``model_parts``, ``rule_parts``, ``grounding_notes``, the
+provider id and the cache keys of the calls) and every fallback reason in
+``scenario.solver.relaxations``. An over-strict model FSM (two things at the same instant) is
+left as the model wrote it: :func:`regen.driving.backend.verify` relaxes it after simulation
+and records that too.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import TYPE_CHECKING, Any
+
+from regen.assets.database import AssetDatabase, load_database
+from regen.core.graph import CausePath
+from regen.core.scenario import FSM, Scenario
+from regen.driving.ego import EgoTemplate, template_for
+from regen.driving.fsm_rules import RoleChoice
+from regen.driving.ground import (
+    build_scenario,
+    default_narrative,
+    location_from_text,
+    roles_of,
+    template_of,
+)
+from regen.driving.llm_answers import (
+    MAX_STATES,
+    RoleOptions,
+    available,
+    chosen_roles,
+    fsm_schema,
+    role_options,
+    role_schema,
+)
+from regen.driving.primitives import LOCATIONS, PEDESTRIAN_ASSETS, default_location
+from regen.errors import ConfigError, GroundingError, MalformedAnswerError
+from regen.prompting import render
+from regen.verify.monitor import validate_fsm
+
+if TYPE_CHECKING:
+    from regen.llm.client import LLM
+
+log = logging.getLogger(__name__)
+
+PKG = "regen.driving"
+PURPOSE_ROLES = "ground_roles"
+PURPOSE_FSM = "ground_fsm"
+PARTS = ("narrative", "roles", "fsm")
+
+
+def path_roles(path: CausePath, db: AssetDatabase) -> tuple[list[RoleChoice], list[str]]:
+    """Rule-based roles from the path, tolerant of start-location texts no rule can place
+    (those get the primitive's default and a note). GroundingError for unknown assets and
+    contradictory property values: no answer can fix the path itself."""
+    roles: list[RoleChoice] = []
+    notes: list[str] = []
+    counts: dict[str, int] = {}
+    for pe in path.entities:
+        if pe.asset not in db.assets:
+            raise GroundingError(f"the asset {pe.asset!r} is not in the driving database")
+        counts[pe.asset] = counts.get(pe.asset, 0) + 1
+        name = f"{pe.asset}{counts[pe.asset]}"
+        props: dict[str, str] = {}
+        for key, vals in pe.properties.items():
+            uniq = list(dict.fromkeys(vals))
+            if len(uniq) > 1:
+                raise GroundingError(f"contradictory properties: {name} has {key} = "
+                                     f"{' and '.join(uniq)} at once; keep one value")
+            if uniq:
+                props[key] = uniq[0]
+        behaviors = db.assets[pe.asset].behaviors
+        prim = props.pop("behavior", None)
+        if prim is None or prim not in behaviors:
+            if prim is not None:
+                notes.append(f"{name}: a {pe.asset} cannot {prim!r}")
+            prim = ("cross_the_road" if pe.asset in PEDESTRIAN_ASSETS and "cross_the_road" in behaviors
+                    else "drive_forward" if "drive_forward" in behaviors
+                    else "stationary" if "stationary" in behaviors else "")
+        loc_text = props.pop("start_location", None)
+        props.pop("end_location", None)
+        loc = location_from_text(loc_text) if loc_text else None
+        if loc_text and loc is None:
+            notes.append(f"{name}: cannot place start location {loc_text!r}")
+        speed = props.pop("target_speed", "moderate")
+        roles.append(RoleChoice(name=name, asset=pe.asset, primitive=prim,
+                                location=loc or default_location(prim, pe.asset),
+                                speed_class=speed, properties=props))
+    return roles, notes
+
+
+def _hints(pe_props: dict[str, list[str]]) -> str:
+    return ", ".join(f"{k}={' / '.join(v)}" for k, v in pe_props.items() if v)
+
+
+def roles_prompt(path: CausePath, options: list[RoleOptions], schema: type) -> str:
+    db_assets = load_database("driving").assets
+    actors = []
+    for o, pe in zip(options, path.entities, strict=True):
+        actors.append({"name": o.name, "description": db_assets[o.asset].description,
+                       "hints": _hints(pe.properties), "locations": o.locations})
+    used = dict.fromkeys(loc for o in options for loc in o.all_locations)
+    keys = list(schema.model_fields)
+    keys = keys[1:] + keys[:1]  # the narrative last in the sentence, first in the JSON
+    return render(PKG, "ground_roles", behavior=path.behavior.text, events=path.events,
+                  actors=actors, places=[(loc, LOCATIONS[loc]) for loc in used], keys=keys)
+
+
+def _actor_line(r: RoleChoice) -> str:
+    bits = [r.asset]
+    if r.primitive and r.location:
+        bits.append(f"{r.primitive.replace('_', ' ')} from {r.location}")
+        if r.primitive != "stationary":
+            bits.append(f"{r.speed_class} speed")
+    bits += [f"{k}={v}" for k, v in r.properties.items()]
+    return f"{r.name}: " + ", ".join(bits)
+
+
+def fsm_prompt(narrative: str, roles: list[RoleChoice], template: EgoTemplate) -> str:
+    preds = [f"{s.signature()}: {s.doc}" for s in available(roles, template)]
+    return render(PKG, "ground_fsm", narrative=narrative, ego=template.description,
+                  actors=[_actor_line(r) for r in roles], predicates=preds,
+                  min_states=len(roles) + 2, max_states=MAX_STATES)
+
+
+class _Grounding:
+    """Bookkeeping of one model grounding: which part came from where, and why."""
+
+    def __init__(self, llm: LLM):
+        self.llm = llm
+        self.source: dict[str, str] = {}
+        self.notes: list[str] = []
+        self.calls: list[str] = []
+
+    def ask(self, prompt: str, schema: type, purpose: str) -> Any | None:
+        """The validated answer, or None (and a note) when it never validated."""
+        try:
+            answered = self.llm.ask(prompt, schema, purpose=purpose,
+                                    system=render(PKG, "ground_system"))
+        except MalformedAnswerError as exc:
+            self.notes.append(f"{purpose}: the model's answer was unusable ({exc}); used the rules")
+            return None
+        self.calls.append(answered.call_id)
+        return answered.value
+
+    def use(self, part: str, source: str, note: str | None = None) -> None:
+        self.source[part] = source
+        if note:
+            self.notes.append(note)
+
+    @property
+    def grounder(self) -> str:
+        used = {self.source.get(p, "rules") for p in PARTS}
+        if used == {"model"}:
+            return "model"
+        return "model+rules" if "model" in used else "rule-based"
+
+    def finish(self, scenario: Scenario) -> Scenario:
+        world = dict(scenario.world)
+        world.update({
+            "grounder": self.grounder,
+            "model_parts": ",".join(p for p in PARTS if self.source.get(p) == "model"),
+            "rule_parts": ",".join(p for p in PARTS if self.source.get(p) != "model"),
+            "llm": self.llm.provider.id,
+            "model_calls": ",".join(self.calls),
+        })
+        if self.notes:
+            world["grounding_notes"] = "; ".join(self.notes)
+        solver = scenario.solver.model_copy(
+            update={"relaxations": list(scenario.solver.relaxations) + self.notes})
+        return scenario.model_copy(update={"world": world, "solver": solver})
+
+
+def _build(path: CausePath, roles: list[RoleChoice], narrative: str, seed: int,
+           db: AssetDatabase) -> Scenario:
+    return build_scenario(path, roles, narrative=narrative, fsm=None, grounder="model", seed=seed, db=db)
+
+
+def _ground_roles(path: CausePath, g: _Grounding, template: EgoTemplate, defaults: list[RoleChoice],
+                  seed: int, db: AssetDatabase) -> Scenario:
+    """Call 1 and the scenario it gives (rule-based roles where the model's are unusable)."""
+    options = [role_options(r, db, template) for r in defaults]
+    schema = role_schema(options, defaults, template)
+    answer = g.ask(roles_prompt(path, options, schema), schema, PURPOSE_ROLES)
+    narrative = default_narrative(path)
+    if answer is None:
+        g.use("narrative", "rules")
+        g.use("roles", "rules")
+        return _build(path, defaults, narrative, seed, db)
+    g.use("narrative", "model")
+    narrative = " ".join(answer.narrative.split())
+    roles = chosen_roles(answer, options, defaults)
+    try:
+        scenario = _build(path, roles, narrative, seed, db)
+    except GroundingError as exc:
+        g.use("roles", "rules", f"{PURPOSE_ROLES}: the model's roles cannot be grounded ({exc}); "
+              "used the rule-based roles")
+        return _build(path, defaults, narrative, seed, db)
+    if scenario.solver.status == "infeasible" and roles != defaults:
+        try:
+            fallback = _build(path, defaults, narrative, seed, db)
+        except GroundingError:
+            fallback = None
+        if fallback is not None and fallback.solver.status != "infeasible":
+            g.use("roles", "rules", f"{PURPOSE_ROLES}: the model's roles have no placement "
+                  f"({'; '.join(scenario.solver.conflicts)}); used the rule-based roles")
+            return fallback
+    g.use("roles", "model")
+    return scenario
+
+
+def _ground_fsm(g: _Grounding, scenario: Scenario, roles: list[RoleChoice]) -> FSM | None:
+    """Call 2: the model's FSM, or None (rule-based FSM kept) with the reason noted."""
+    if scenario.solver.status == "infeasible":
+        g.use("fsm", "rules", f"{PURPOSE_FSM}: not asked, the placement is infeasible")
+        return None
+    template = template_of(scenario)
+    schema = fsm_schema(roles, template)
+    answer = g.ask(fsm_prompt(scenario.narrative, roles, template), schema, PURPOSE_FSM)
+    if answer is None:
+        g.use("fsm", "rules")
+        return None
+    try:
+        fsm = answer.to_fsm()
+    except ValueError as exc:  # pydantic's own FSM checks; the schema should prevent this
+        g.use("fsm", "rules", f"{PURPOSE_FSM}: the model's FSM is inconsistent ({exc}); used the rules")
+        return None
+    problems = validate_fsm(fsm, {e.name for e in scenario.entities}, "driving")
+    if problems:
+        g.use("fsm", "rules", f"{PURPOSE_FSM}: the model's FSM fails the monitor's check "
+              f"({'; '.join(problems)}); used the rules")
+        return None
+    g.use("fsm", "model")
+    return fsm
+
+
+def ground_with_model(path: CausePath, llm: LLM, *, seed: int = 0,
+                      db: AssetDatabase | None = None) -> Scenario:
+    """Ground one cause path with the model's roles, narrative and FSM (two calls).
+
+    Unusable answers fall back to the rule-based parts (recorded in ``world`` and
+    ``solver.relaxations``). Raises :class:`GroundingError` only when the path itself cannot be
+    grounded (unknown asset, contradictory properties, no map for even the rule-based roles);
+    errors of the LLM layer other than a malformed answer (replay miss, unreachable provider,
+    missing key) propagate, so a replay or configuration problem is never silently hidden.
+    """
+    db = db or load_database("driving")
+    try:
+        template = template_for(path.behavior.text, path.behavior.ego_template)
+    except ConfigError as exc:
+        raise GroundingError(str(exc)) from None
+    defaults, notes = path_roles(path, db)
+    g = _Grounding(llm)
+    g.notes += [f"path: {n}; the model or a default chooses instead" for n in notes]
+    scenario = _ground_roles(path, g, template, defaults, seed, db)
+    roles = roles_of(scenario)
+    fsm = _ground_fsm(g, scenario, roles)
+    if fsm is not None:
+        scenario = Scenario.model_validate({**scenario.model_dump(), "fsm": fsm.model_dump()})
+    return g.finish(scenario)
+
+
+__all__ = ["fsm_prompt", "ground_with_model", "path_roles", "roles_prompt"]

@@ -1,0 +1,143 @@
+"""Pictures of a manipulation run: a labeled image strip (PNG) and a GIF (TinyRenderer).
+
+The trace is replayed into a freshly built scene (robot joint angles, furniture joints, object
+positions), so rendering needs no live simulation. Labels are drawn with Pillow at each object's
+projected position.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from PIL import Image, ImageDraw
+
+from regen.core.io import atomic_write_bytes
+from regen.core.scenario import Scenario
+from regen.core.trace import Trace
+from regen.core.verdict import Verdict
+from regen.manipulation.scene import ARM_JOINTS, FINGER_JOINTS, Scene
+from regen.manipulation.simulate import layout_from_scenario
+
+WIDTH, HEIGHT = 320, 240  # [px]
+CAMERA = {"target": (0.6, 0.15, 0.3), "distance": 2.6, "yaw": -62.0, "pitch": -48.0}  # [m], [deg]
+
+
+def _camera(p, client: int, steep: bool = False) -> tuple[list[float], list[float]]:
+    # behind a wall (door, window) objects are only visible from a steep camera
+    pitch = -68.0 if steep else CAMERA["pitch"]
+    view = p.computeViewMatrixFromYawPitchRoll(CAMERA["target"], CAMERA["distance"], CAMERA["yaw"],
+                                               pitch, 0, 2, physicsClientId=client)
+    proj = p.computeProjectionMatrixFOV(55, WIDTH / HEIGHT, 0.05, 10.0, physicsClientId=client)
+    return view, proj
+
+
+def _project(point: tuple[float, float, float], view: list[float], proj: list[float]) -> tuple[int, int] | None:
+    v = np.asarray(view).reshape(4, 4).T
+    pr = np.asarray(proj).reshape(4, 4).T
+    clip = pr @ v @ np.array([*point, 1.0])
+    if clip[3] <= 0:
+        return None
+    ndc = clip[:3] / clip[3]
+    return int((ndc[0] + 1) / 2 * WIDTH), int((1 - ndc[1]) / 2 * HEIGHT)
+
+
+def _pose_at(scene: Scene, trace: Trace, i: int, offsets: dict[str, np.ndarray]) -> None:
+    p, c = scene.p, scene.client
+    for name, track in trace.actors.items():
+        if name not in scene.bodies:
+            continue
+        b = scene.bodies[name]
+        if b.kind == "robot":
+            for k, j in enumerate((*ARM_JOINTS, *FINGER_JOINTS)):
+                seq = track.states.get(f"q{k}")
+                if seq:
+                    p.resetJointState(b.id, j, float(seq[i]), physicsClientId=c)
+            continue
+        if b.kind == "furniture" and b.joint is not None and "joint_position" in track.states:
+            p.resetJointState(b.id, b.joint, float(track.states["joint_position"][i]), physicsClientId=c)
+        if name in offsets:
+            pos, orn = p.getBasePositionAndOrientation(b.id, physicsClientId=c)
+            centre = np.array([track.x[i], track.y[i], track.z[i]])
+            p.resetBasePositionAndOrientation(b.id, (centre + offsets[name]).tolist(), orn,
+                                              physicsClientId=c)
+
+
+def _label_text(scenario: Scenario, name: str) -> str:
+    e = scenario.entity(name)
+    loc = e.properties.get("location")
+    return f"{name} ({loc.replace('_', ' ')})" if loc else name
+
+
+def render_frames(scenario: Scenario, trace: Trace, indices: list[int]) -> list[Image.Image]:
+    """Images of the trace at the given sample indices, with object labels."""
+    layout, _ = layout_from_scenario(scenario)
+    frames: list[Image.Image] = []
+    with Scene(layout) as scene:
+        p, c = scene.p, scene.client
+        offsets: dict[str, np.ndarray] = {}
+        for name, b in scene.bodies.items():
+            if b.kind == "object" or (b.spec is not None and b.spec.dynamic):
+                pos, _ = p.getBasePositionAndOrientation(b.id, physicsClientId=c)
+                box = scene.aabb(name, -1 if b.kind == "furniture" else None)
+                centre = (np.asarray(box.lo) + np.asarray(box.hi)) / 2
+                offsets[name] = np.asarray(pos) - centre
+        view, proj = _camera(p, c, any(b.spec is not None and b.spec.wall for b in scene.bodies.values()))
+        for i in indices:
+            _pose_at(scene, trace, i, offsets)
+            if scenario.world.get("behavior") in ("turn_on_lamp",):
+                on = any(v == "on" for a in trace.actors.values() for v in [a.states.get("power", [None] * (i + 1))[i]])
+                for b in scene.bodies.values():
+                    if b.asset == "lamp":
+                        p.changeVisualShape(b.id, -1, rgbaColor=(1, 0.9, 0.3, 1) if on else (0.2, 0.2, 0.22, 1),
+                                            physicsClientId=c)
+            _, _, rgba, _, _ = p.getCameraImage(WIDTH, HEIGHT, view, proj, renderer=p.ER_TINY_RENDERER,
+                                                physicsClientId=c)
+            img = Image.fromarray(np.asarray(rgba, dtype=np.uint8).reshape(HEIGHT, WIDTH, 4)[:, :, :3])
+            draw = ImageDraw.Draw(img)
+            for name, track in trace.actors.items():
+                if name == "robot" or name not in scene.bodies:
+                    continue
+                top = (track.x[i], track.y[i], track.z[i] + track.height / 2 + 0.05)
+                xy = _project(top, view, proj)
+                if xy is None:
+                    continue
+                text = _label_text(scenario, name)
+                w = draw.textlength(text)
+                x0, y0 = max(0, min(WIDTH - w - 4, xy[0] - w / 2)), max(0, xy[1] - 12)
+                draw.rectangle((x0, y0, x0 + w + 4, y0 + 11), fill=(255, 255, 255))
+                draw.text((x0 + 2, y0), text, fill=(0, 0, 0))
+            draw.rectangle((2, HEIGHT - 13, 62, HEIGHT - 1), fill=(0, 0, 0))
+            draw.text((4, HEIGHT - 12), f"t = {trace.times[i]:.1f} s", fill=(255, 255, 255))
+            frames.append(img)
+    return frames
+
+
+def render_run(scenario: Scenario, trace: Trace, verdict: Verdict, out_dir: Path,
+               *, strip_frames: int = 4, gif_frames: int = 16) -> dict[str, Path]:
+    """Write ``strip.png`` (start .. end, with the narrative and verdict) and ``run.gif``."""
+    out_dir = Path(out_dir)
+    n = trace.steps
+    strip_idx = sorted({int(round(k * (n - 1) / max(1, strip_frames - 1))) for k in range(strip_frames)})
+    gif_idx = sorted({int(round(k * (n - 1) / max(1, gif_frames - 1))) for k in range(gif_frames)})
+    frames = render_frames(scenario, trace, sorted(set(strip_idx) | set(gif_idx)))
+    by_idx = dict(zip(sorted(set(strip_idx) | set(gif_idx)), frames, strict=True))
+    header = 28
+    strip = Image.new("RGB", (WIDTH * len(strip_idx), HEIGHT + header), (255, 255, 255))
+    for k, i in enumerate(strip_idx):
+        strip.paste(by_idx[i], (k * WIDTH, header))
+    d = ImageDraw.Draw(strip)
+    d.text((4, 2), scenario.narrative[:200], fill=(0, 0, 0))
+    d.text((4, 14), f"verdict: {verdict.status} - {verdict.reason[:150]}",
+           fill=(0, 120, 0) if verdict.feasible else (170, 0, 0))
+    import io
+
+    buf = io.BytesIO()
+    strip.save(buf, format="PNG")
+    files = {"strip": atomic_write_bytes(out_dir / "strip.png", buf.getvalue())}
+    import imageio.v3 as iio
+
+    gif = iio.imwrite("<bytes>", [np.asarray(by_idx[i]) for i in gif_idx], extension=".gif",
+                      duration=150, loop=0)
+    files["gif"] = atomic_write_bytes(out_dir / "run.gif", gif)
+    return files

@@ -1,0 +1,213 @@
+"""Roll a grounded manipulation scenario out in PyBullet and record a :class:`Trace`.
+
+Scenario conventions (written by :mod:`regen.manipulation.grounding`):
+
+- ``world['behavior']``: behavior id; ``world['duration']`` [s] caps the rollout.
+- entity ``properties['role']``: ``robot``, ``target`` (the furniture the behavior acts on),
+  ``item`` (the object it moves), ``support`` (the table) or ``context`` (placed objects).
+- ``parameters[name]``: ``x``, ``y`` [m] (furniture origin / object bottom centre), ``z`` [m]
+  (support height), ``furniture`` (kind), ``fraction`` (initial opening), ``length``,
+  ``width``, ``height`` [m], ``dynamic`` (bool).
+
+Trace contents, recorded at ``RECORD_HZ``: every body's AABB centre (x, y, z) and extents; the
+robot's end effector (``ee_x/y/z``), what it holds (``holding``) and its joint angles
+(``q0``..``q8``, for replay); furniture ``joint_fraction``, ``joint_position``, handle point
+(``handle_x/y/z``), interior (``cavity_lo_x`` .. ``cavity_hi_z``), ``top`` height and the
+meaning of the joint when it has one (``power``/``water`` on/off).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+
+from regen.core.scenario import Scenario
+from regen.core.trace import ActorTrack, Trace
+from regen.errors import SimulationError
+from regen.manipulation.behaviors import BehaviorDef, get_behavior
+from regen.manipulation.scene import DT, FurniturePlacement, ObjectPlacement, Scene, SceneLayout
+
+log = logging.getLogger(__name__)
+
+RECORD_HZ = 24  # trace samples per simulated second
+ON_FRACTION = 0.5  # a switch/lever/knob counts as 'on' beyond this opening
+
+
+@dataclass
+class Roles:
+    target: str
+    item: str | None = None
+    behavior: BehaviorDef | None = None
+
+
+def layout_from_scenario(scenario: Scenario) -> tuple[SceneLayout, Roles]:
+    """The physical layout a scenario describes, and which entity plays which role."""
+    behavior = get_behavior(str(scenario.world.get("behavior", "")))
+    layout = SceneLayout()
+    target: str | None = None
+    item: str | None = None
+    for e in scenario.entities:
+        role = e.properties.get("role", "context")
+        if role == "robot":
+            continue
+        par = scenario.parameters.get(e.name)
+        if par is None:
+            raise SimulationError(f"entity {e.name!r} has no solved placement; ground the scenario first")
+        if "furniture" in par:
+            layout.furniture.append(FurniturePlacement(e.name, str(par["furniture"]), float(par["x"]),
+                                                       float(par["y"]), float(par.get("fraction", 0.0))))
+        else:
+            layout.objects.append(ObjectPlacement(
+                e.name, e.asset, float(par["x"]), float(par["y"]), float(par.get("z", 0.0)),
+                (float(par["length"]), float(par["width"]), float(par["height"])),
+                dynamic=bool(par.get("dynamic", False)), label=e.name))
+        if role == "target":
+            target = e.name
+        elif role == "item":
+            item = e.name
+    if target is None:
+        raise SimulationError("the scenario has no target furniture (an entity with role 'target')")
+    return layout, Roles(target, item, behavior)
+
+
+@dataclass
+class Recorder:
+    """Samples the scene every ``every`` physics steps into columnar lists."""
+
+    scene: Scene
+    every: int = int(round(1 / (DT * RECORD_HZ)))
+    steps: int = 0
+    times: list[float] = field(default_factory=list)
+    tracks: dict[str, dict[str, list]] = field(default_factory=dict)
+    holding: str | None = None
+    meaning: dict[str, str] = field(default_factory=dict)  # furniture -> state key it drives
+
+    def __call__(self) -> None:
+        self.steps += 1
+        if (self.steps - 1) % self.every == 0:
+            self.sample()
+
+    def _put(self, name: str, key: str, value: object) -> None:
+        self.tracks.setdefault(name, {}).setdefault(key, []).append(value)
+
+    def sample(self) -> None:
+        s = self.scene
+        self.times.append(round(self.steps * DT, 5))
+        for name, b in s.bodies.items():
+            if b.kind == "robot":
+                self._put(name, "x", b.origin[0])
+                self._put(name, "y", b.origin[1])
+                self._put(name, "z", b.origin[2])
+                ee = s.ee_position()
+                for k, v in zip(("ee_x", "ee_y", "ee_z"), ee, strict=True):
+                    self._put(name, k, round(float(v), 4))
+                self._put(name, "holding", self.holding or "")
+                for i, q in enumerate(s.arm_state()):
+                    self._put(name, f"q{i}", round(q, 4))
+                continue
+            box = s.aabb(name, -1 if b.kind == "furniture" else None)
+            centre = [(lo + hi) / 2 for lo, hi in zip(box.lo, box.hi, strict=True)]
+            for k, v in zip(("x", "y", "z"), centre, strict=True):
+                self._put(name, k, round(v, 4))
+            self._put(name, "heading", round(s.yaw(name), 4))
+            if b.kind == "furniture" and b.spec is not None:
+                spec = b.spec
+                frac = s.joint_fraction(name)
+                self._put(name, "joint_fraction", round(frac, 4))
+                self._put(name, "joint_position", round(s.joint_position(name), 4))
+                h = s.handle_position(name) if spec.handle_link else (0.0, 0.0, 0.0)
+                for k, v in zip(("handle_x", "handle_y", "handle_z"), h, strict=True):
+                    self._put(name, k, round(float(v), 4))
+                cav = s.cavity(name)
+                if cav is not None:
+                    for k, v in zip(("lo_x", "lo_y", "lo_z", "hi_x", "hi_y", "hi_z"),
+                                    (*cav.lo, *cav.hi), strict=True):
+                        self._put(name, f"cavity_{k}", round(float(v), 4))
+                if spec.top is not None:
+                    self._put(name, "top", round(box.lo[2] + spec.top, 4))
+                if spec.under is not None:
+                    self._put(name, "under", round(box.lo[2] + spec.under, 4))
+                if name in self.meaning:
+                    self._put(name, self.meaning[name], "on" if frac > ON_FRACTION else "off")
+
+    def trace(self, scenario: Scenario) -> Trace:
+        actors: dict[str, ActorTrack] = {}
+        n = len(self.times)
+        for e in scenario.entities:
+            cols = self.tracks.get(e.name)
+            if cols is None:
+                continue
+            b = self.scene.bodies[e.name]
+            if b.kind == "robot":
+                size = b.size
+            elif b.kind == "furniture":
+                size = self.scene.aabb(e.name, -1).size
+            else:
+                size = b.size
+            xs, ys = cols.pop("x"), cols.pop("y")
+            zs = cols.pop("z")
+            heading = cols.pop("heading", [])
+            speed = [0.0] + [math.hypot(xs[i] - xs[i - 1], ys[i] - ys[i - 1]) * RECORD_HZ
+                             for i in range(1, n)]
+            actors[e.name] = ActorTrack(asset=e.asset, kind=e.kind, length=size[0], width=size[1],
+                                        height=size[2], x=xs, y=ys, z=zs, heading=heading,
+                                        speed=[round(v, 4) for v in speed], states=cols)
+        return Trace(dt=1.0 / RECORD_HZ, times=self.times, actors=actors,
+                     meta={"simulator": "pybullet", "behavior": str(scenario.world.get("behavior", "")),
+                           "physics_dt": DT, "physics_steps": self.steps})
+
+
+@dataclass
+class RolloutResult:
+    trace: Trace
+    timings: dict[str, float]  # stage -> wall seconds (build, rollout)
+    script_ok: bool  # every primitive reported success (the verdict is still the FSM's)
+    physics_steps: int
+
+
+def rollout(scenario: Scenario, *, policy: object | None = None) -> RolloutResult:
+    """Build the scene, run the behavior's controller, record the trace.
+
+    ``policy``: a trained SAC policy (:mod:`regen.manipulation.rl`); default is the scripted
+    motion-primitive controller. Simulator failures raise :class:`SimulationError`.
+    """
+    from regen.manipulation.controller import Controller
+    from regen.manipulation.scripted import run_script
+
+    layout, roles = layout_from_scenario(scenario)
+    behavior = roles.behavior
+    assert behavior is not None
+    t0 = time.perf_counter()
+    with Scene(layout) as scene:
+        t1 = time.perf_counter()
+        rec = Recorder(scene)
+        if behavior.state_name:
+            rec.meaning[roles.target] = behavior.state_name
+        ctl = Controller(scene, on_step=rec)
+        # the recorder reads the controller's grasp state on every sample
+        orig = ctl.on_step
+
+        def on_step() -> None:
+            rec.holding = ctl.holding
+            orig()
+
+        ctl.on_step = on_step
+        ctl.wait(0.25)  # let dynamic bodies settle before the behavior starts
+        try:
+            if policy is not None:
+                from regen.manipulation.rl import run_policy
+
+                ok = run_policy(policy, ctl, behavior, roles.target)
+            else:
+                ok = run_script(ctl, behavior, roles.target, roles.item)
+        except SimulationError:
+            raise
+        except Exception as exc:  # pybullet raises bare errors; report them as ours
+            raise SimulationError(f"PyBullet failed during the rollout: {exc}") from exc
+        rec.holding = ctl.holding
+        rec.sample()
+        trace = rec.trace(scenario)
+        t2 = time.perf_counter()
+    return RolloutResult(trace, {"build": t1 - t0, "rollout": t2 - t1}, ok, rec.steps)

@@ -1,0 +1,309 @@
+"""Model grounding of driving paths: queued answers (fast) and one simulated run (slow)."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))  # the tests folder is not a package
+from driving_chains import FEASIBLE, IMPOSSIBLE, chain  # noqa: E402
+
+from regen.driving.backend import DrivingBackend, scenic_program  # noqa: E402
+from regen.driving.fsm_rules import rule_based_fsm  # noqa: E402
+from regen.driving.ground import ground_rule_based, roles_of, template_of  # noqa: E402
+from regen.driving.llm_answers import fsm_schema, never_holds, parse_call  # noqa: E402
+from regen.driving.llm_ground import ground_with_model  # noqa: E402
+from regen.errors import GroundingError  # noqa: E402
+from regen.llm import LLM  # noqa: E402
+from regen.llm.testing import QueuedProvider  # noqa: E402
+from regen.verify.predicates import list_predicates  # noqa: E402
+
+CHILD = FEASIBLE["stop_abruptly"][0]  # a child runs across the road
+AMBULANCE = FEASIBLE["stop_abruptly"][1]  # an ambulance with its siren on approaches from behind
+RED_LIGHT = FEASIBLE["stop_in_intersection"][0]  # a car runs the red light
+
+CHILD_ROLES = {"narrative": "A child runs across the road from the sidewalk, so the ego brakes hard.",
+               "child1_behavior": "cross_the_road", "child1_start": "roadside_ahead",
+               "child1_speed": "moderate"}
+
+
+def _state(stage, actor, name, *holds):
+    return {"stage": stage, "actor": actor, "name": name, "holds": list(holds)}
+
+
+CHILD_FSM = {"states": [
+    _state(1, "child1", "waiting", "on_sidewalk(child1)"),
+    _state(1, "ego", "driving", "moving(ego, min_speed=3)"),
+    _state(3, "child1", "crossing", "on_road(child1)", "moving(child1)"),  # gap: 3 becomes 2
+    _state(4, "ego", "braking", "braking(ego)"),
+    _state(5, "ego", "stopped", "stopped(ego)", "not in_front(child1, ego, distance=2)"),
+]}
+
+
+def _llm(*answers) -> tuple[LLM, QueuedProvider]:
+    provider = QueuedProvider(list(answers))
+    return LLM(provider), provider
+
+
+def test_good_answer_grounds_into_the_models_scenario():
+    llm, provider = _llm(CHILD_ROLES, CHILD_FSM)
+    sc = ground_with_model(CHILD, llm)
+    assert sc.world["grounder"] == "model"
+    assert sc.world["model_parts"] == "narrative,roles,fsm" and sc.world["rule_parts"] == ""
+    assert sc.narrative == CHILD_ROLES["narrative"]
+    assert sc.fsm.as_tuples() == [[("child1", "waiting"), ("ego", "driving")], [("child1", "crossing")],
+                                  [("ego", "braking")], [("ego", "stopped")]]
+    stopped = sc.fsm.state("ego", "stopped").all_of
+    assert stopped[1].negate and stopped[1].args == ["child1", "ego"] and stopped[1].params == {"distance": 2.0}
+    assert sc.fsm.state("ego", "driving").all_of[0].params == {"min_speed": 3.0}
+    assert sc.entity("child1").behavior == "cross_the_road"
+    assert sc.solver.status in ("optimal", "feasible") and sc.solver.relaxations == []
+    assert len(sc.world["model_calls"].split(",")) == 2
+    # the FSM prompt names only this scenario's actors and leaves out impossible predicates
+    fsm_prompt = provider.requests[1][-1]["content"]
+    assert "child1: child, cross the road from roadside_ahead" in fsm_prompt
+    assert "siren_on" not in fsm_prompt and "light_is" not in fsm_prompt
+
+
+def test_model_roles_change_the_placement():
+    roles = dict(CHILD_ROLES, child1_start="roadside_opposite_ahead", child1_speed="fast")
+    llm, _ = _llm(roles, CHILD_FSM)
+    sc = ground_with_model(CHILD, llm)
+    rule = ground_rule_based(CHILD)
+    assert sc.entity("child1").behavior_params["location"] == "roadside_opposite_ahead"
+    assert rule.entity("child1").behavior_params["location"] == "roadside_ahead"
+    assert sc.parameters["child1"] != rule.parameters["child1"]
+
+
+def test_unknown_actor_and_predicate_are_reasked_then_accepted():
+    bad = {"states": [_state(1, "ambulance1", "behind", "behind(ambulance1, ego)"),
+                      _state(2, "ego", "flying", "levitates(ego)")]}
+    llm, provider = _llm(CHILD_ROLES, bad, CHILD_FSM)
+    sc = ground_with_model(CHILD, llm)
+    assert sc.world["grounder"] == "model"
+    reask = provider.requests[2][-1]["content"]
+    assert "states.0.actor" in reask and "levitates" in reask  # the errors went back to the model
+    assert "'ego' or 'child1'" in reask
+    assert llm.stats.by_purpose["ground_fsm"].reasks == 1
+
+
+def test_fsm_that_stays_invalid_falls_back_to_the_rules_with_the_reason():
+    bad = {"states": [_state(1, "child1", "w", "on_sidewalk(child1)"),
+                      _state(2, "ego", "flying", "levitates(ego)")]}
+    llm, _ = _llm(CHILD_ROLES, bad, bad, bad)
+    sc = ground_with_model(CHILD, llm)
+    assert sc.world["grounder"] == "model+rules"
+    assert sc.world["model_parts"] == "narrative,roles" and sc.world["rule_parts"] == "fsm"
+    assert sc.fsm == rule_based_fsm(roles_of(sc), template_of(sc))
+    assert "levitates" in sc.world["grounding_notes"]
+    assert any("ground_fsm" in r and "used the rules" in r for r in sc.solver.relaxations)
+
+
+def test_unknown_behavior_and_extra_actor_are_reasked_then_fall_back():
+    bad = dict(CHILD_ROLES, child1_behavior="fly", dragon1_behavior="drive_forward")
+    llm, provider = _llm(bad, bad, bad, CHILD_FSM)
+    sc = ground_with_model(CHILD, llm)
+    assert sc.world["grounder"] == "model+rules"
+    assert sc.world["rule_parts"] == "narrative,roles" and sc.world["model_parts"] == "fsm"
+    assert sc.narrative == "a child runs across the road, so the ego-vehicle stops abruptly while driving forward."
+    reask = provider.requests[1][-1]["content"]
+    assert "child1_behavior" in reask and "dragon1_behavior" in reask
+    assert "child1_behavior" in sc.world["grounding_notes"]
+
+
+def test_malformed_answers_fall_back_to_rules_entirely():
+    llm, _ = _llm("I think the child", "{not json", "", "sorry", "[]", "{}")
+    sc = ground_with_model(CHILD, llm)
+    rule = ground_rule_based(CHILD)
+    assert sc.world["grounder"] == "rule-based" and sc.world["model_parts"] == ""
+    assert sc.fsm == rule.fsm and sc.parameters == rule.parameters
+    assert len(sc.solver.relaxations) == 2 and sc.world["model_calls"] == ""
+
+
+def test_start_that_does_not_suit_the_behavior_is_reasked():
+    bad = dict(CHILD_ROLES, child1_behavior="walk_along", child1_start="crosswalk_ahead")
+    llm, provider = _llm(bad, CHILD_ROLES, CHILD_FSM)
+    sc = ground_with_model(CHILD, llm)
+    assert sc.world["grounder"] == "model"
+    assert "walk_along starts at: roadside_ahead, roadside_opposite_ahead" in provider.requests[1][-1]["content"]
+
+
+def test_locations_the_map_cannot_host_are_not_offered():
+    # stop_in_intersection runs on a one-lane junction road: no adjacent lane exists
+    llm, provider = _llm("{}", "{}", "{}", "{}", "{}", "{}")
+    ground_with_model(RED_LIGHT, llm)
+    schema = provider.requests[0]
+    prompt = schema[-1]["content"]
+    assert "junction_cross_street" in prompt and "behind_adjacent_lane" not in prompt
+    bad = {"narrative": "A car runs the red light.", "sedan1_behavior": "drive_forward",
+           "sedan1_start": "behind_adjacent_lane", "sedan1_speed": "fast"}
+    llm, provider = _llm(bad, bad, bad, "{}", "{}", "{}")
+    sc = ground_with_model(RED_LIGHT, llm)
+    reask = provider.requests[1][-1]["content"]
+    assert "sedan1_start: Input should be" in reask and "behind_adjacent_lane" not in reask
+    assert sc.entity("sedan1").behavior == "run_red_light"  # the rule-based role
+
+
+def test_infeasible_model_roles_fall_back_to_feasible_rule_roles():
+    # a slow lead that must brake ahead of the ego has no placement; the path says moderate
+    lead = FEASIBLE["stop_abruptly"][2]
+    roles = {"narrative": "The car in front brakes hard.", "sedan1_behavior": "drive_forward",
+             "sedan1_start": "ahead_same_lane", "sedan1_speed": "slow"}
+    fsm = {"states": [_state(1, "sedan1", "leading", "in_front(sedan1, ego, distance=60)"),
+                      _state(2, "ego", "stopped", "stopped(ego)")]}
+    llm, _ = _llm(roles, fsm)
+    sc = ground_with_model(lead, llm)
+    assert sc.solver.status in ("optimal", "feasible")
+    assert sc.entity("sedan1").behavior_params["speed_class"] == "moderate"
+    assert sc.world["grounder"] == "model+rules" and sc.world["rule_parts"] == "roles"
+    assert "no placement" in sc.world["grounding_notes"]
+
+
+def test_fsm_that_can_never_hold_is_reasked():
+    roles = {"narrative": "An ambulance with its siren on overtakes the ego.",
+             "ambulance1_behavior": "drive_forward", "ambulance1_start": "behind_adjacent_lane",
+             "ambulance1_speed": "fast"}
+    bad = {"states": [_state(1, "ambulance1", "passing", "behind(ambulance1, ego)", "changing_lane(ambulance1)"),
+                      _state(2, "ego", "yielding", "siren_on(ego)")]}
+    good = {"states": [_state(1, "ambulance1", "approaching", "behind(ambulance1, ego)", "siren_on(ambulance1)"),
+                       _state(2, "ego", "braking", "braking(ego, min_decel=4)"),
+                       _state(3, "ambulance1", "passed", "ahead_of(ambulance1, ego)")]}
+    llm, provider = _llm(roles, bad, good)
+    sc = ground_with_model(AMBULANCE, llm)
+    reask = provider.requests[2][-1]["content"]
+    assert "siren_on(ego) never holds" in reask
+    assert "'changing_lane' is not a predicate of this scenario" in reask  # nobody changes lanes
+    assert sc.world["grounder"] == "model"
+    assert [s.name for s in sc.fsm.states] == ["approaching", "braking", "passed"]
+
+
+def test_hostile_narrative_is_kept_as_data_and_escaped_in_scenic():
+    hostile = 'x"""\nimport os\nos.system("rm -rf /") # {{ evil }} \\'
+    llm, _ = _llm(dict(CHILD_ROLES, narrative=hostile), CHILD_FSM)
+    sc = ground_with_model(CHILD, llm)
+    assert sc.narrative == " ".join(hostile.split())
+    program = scenic_program(sc)
+    assert f"param regen_narrative = {json.dumps(sc.narrative)}\n" in program
+    assert "\nimport os" not in program and "\nos.system" not in program
+
+
+def test_backend_uses_the_model_grounder():
+    llm, _ = _llm(CHILD_ROLES, CHILD_FSM)
+    sc = DrivingBackend().ground(CHILD, llm)
+    assert sc.world["grounder"] == "model" and sc.world["llm"] == "queued:test"
+
+
+def test_broken_paths_raise_grounding_errors_without_calling_the_model():
+    llm, provider = _llm()
+    for key in ("contradictory",):
+        with pytest.raises(GroundingError, match="contradictory"):
+            ground_with_model(IMPOSSIBLE[key], llm)
+    with pytest.raises(GroundingError, match="not in the driving database"):
+        ground_with_model(chain("stop_abruptly", "a dragon lands", ("dragon", {})), llm)
+    assert provider.requests == []
+
+
+def test_unplaceable_location_text_is_chosen_by_the_model():
+    path = chain("stop_abruptly", "a child runs out", ("child", {"start_location": ["on the moon"]}))
+    with pytest.raises(GroundingError, match="cannot place"):
+        ground_rule_based(path)
+    llm, _ = _llm(CHILD_ROLES, CHILD_FSM)
+    sc = ground_with_model(path, llm)
+    assert sc.entity("child1").behavior_params["location"] == "roadside_ahead"
+    assert "on the moon" in sc.world["grounding_notes"]
+
+
+# --- the pieces ---------------------------------------------------------------------------------
+
+
+def _specs():
+    return {s.name: s for s in list_predicates("driving")}
+
+
+@pytest.mark.parametrize("text,problem", [
+    ("flies(ego)", "not a predicate of this scenario"),
+    ("moving(ego, child1)", "takes 1 actor"),
+    ("behind(ego)", "takes 2 actor"),
+    ("behind(ego, ego)", "with itself"),
+    ("moving(bob)", "unknown actor"),
+    ("moving(ego, speed=3)", "no parameter 'speed'"),
+    ("moving(ego, min_speed=999)", "between 0 and 200"),
+    ("light_is(ego, value=purple)", "red, yellow, green, off"),
+    ("__import__('os')", "not a predicate call"),
+])
+def test_parse_call_rejects_with_a_message(text, problem):
+    with pytest.raises(ValueError, match=problem.replace("(", r"\(")):
+        parse_call(text, _specs(), ["ego", "child1"])
+
+
+def test_parse_call_reads_negation_and_parameters():
+    c = parse_call("not  close_to(child1, ego, distance=12.5)", _specs(), ["ego", "child1"])
+    assert (c.negate, c.name, c.args, c.params) == (True, "close_to", ["child1", "ego"], {"distance": 12.5})
+
+
+def test_never_holds_knows_primitives_properties_and_maps():
+    base = ground_rule_based(AMBULANCE)  # siren on, drives forward, straight road
+    roles = {r.name: r for r in roles_of(base)}
+    t = template_of(base)
+    specs = _specs()
+
+    def why(text):
+        return never_holds(parse_call(text, specs, ["ego", "ambulance1"]), roles, t)
+
+    assert why("siren_on(ambulance1)") is None and why("moving(ambulance1)") is None
+    assert "no junction" in why("in_junction(ambulance1)")
+    assert "keeps its line" in why("changing_lane(ambulance1)")
+    assert "door stays closed" in why("door_open(ambulance1)")
+    assert why("stopped(ego)") is None and "ego" in why("turning(ego)")
+    assert why("not turning(ego)") is None  # a negated impossibility always holds
+    light = ground_rule_based(FEASIBLE["drive_forward"][0])  # red, then green
+    lroles = {r.name: r for r in roles_of(light)}
+    lt = template_of(light)
+    call = parse_call("light_is(traffic_light1, value=yellow)", specs, ["ego", "traffic_light1"])
+    assert "shows green, red" in never_holds(call, lroles, lt)
+    assert never_holds(parse_call("light_is(traffic_light1, value=green)", specs, ["ego", "traffic_light1"]),
+                       lroles, lt) is None
+    assert "does not move" in never_holds(parse_call("moving(traffic_light1)", specs,
+                                                     ["ego", "traffic_light1"]), lroles, lt)
+
+
+def test_fsm_schema_constrains_names_for_constrained_decoding():
+    base = ground_rule_based(CHILD)
+    schema = fsm_schema(roles_of(base), template_of(base)).model_json_schema()
+    state = schema["$defs"]["State"]["properties"]
+    assert state["actor"]["enum"] == ["ego", "child1"]
+    assert state["stage"]["enum"] == [1, 2, 3, 4, 5, 6]
+    pattern = state["holds"]["items"]["pattern"]
+    import re
+
+    rx = re.compile(pattern)
+    assert rx.match("on_road(child1)") and rx.match("not in_front(child1, ego, distance=2)")
+    assert not rx.match("siren_on(child1)") and not rx.match("moving(bob)")
+
+
+# --- through simulation ----------------------------------------------------------------------
+
+
+@pytest.mark.slow
+def test_over_strict_model_stage_is_relaxed_after_simulation():
+    pytest.importorskip("scenic")
+    from regen.driving.backend import run_path
+
+    strict = {"states": [
+        _state(1, "child1", "waiting", "on_sidewalk(child1)"),
+        _state(2, "child1", "crossing", "on_road(child1)", "moving(child1)"),
+        # the model wants the ego to brake while the child is already on the far sidewalk
+        _state(3, "ego", "braking", "braking(ego)"),
+        _state(3, "child1", "crossed", "on_sidewalk(child1)"),
+    ]}
+    llm, _ = _llm(CHILD_ROLES, strict)
+    r = run_path(CHILD, llm=llm)
+    assert r.scenario.world["grounder"] == "model"
+    assert r.verdict.status == "verified", r.verdict.reason
+    assert any("relaxed into 2 consecutive stages" in x for x in r.verdict.relaxations)
+    assert r.scenario.fsm.as_tuples()[2:] == [[("ego", "braking")], [("child1", "crossed")]]
+    stage = r.verdict.stages[2]  # braking (t ~ 6 s) comes before the far sidewalk (t ~ 13 s)
+    assert stage.conditions == ["ego: braking"] and 5.5 < stage.reached_at < 7.5

@@ -1,0 +1,65 @@
+"""Expansion driven by answers recorded from the real offline model (scripts/record_cassettes.py),
+and one live expansion against the offline model (marker 'model')."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from regen.assets import load_database
+from regen.core.behavior import Behavior
+from regen.core.graph import ScenarioGraph
+from regen.expand import Limits, expand
+from regen.llm import LLM
+from regen.llm.cache import CallCache
+
+CASSETTES = Path(__file__).resolve().parents[1] / "data" / "cassettes"
+
+CASES = {
+    "expand_driving": (Behavior(text="the ego-vehicle stops abruptly while driving forward", domain="driving"),
+                       Limits(max_depth=1, max_causes=3)),
+    "expand_manipulation": (Behavior(text="the robot opens the door", domain="manipulation", reward="open_door"),
+                            Limits(max_depth=1, max_causes=3)),
+}
+
+
+def _check(graph: ScenarioGraph) -> None:
+    db = load_database(graph.behavior.domain)
+    ScenarioGraph.model_validate_json(graph.model_dump_json())
+    for n in graph.nodes.values():
+        if n.kind == "entity" and n.status == "accepted":
+            assert n.asset in db.assets
+        if n.kind == "property" and n.status == "accepted":
+            enumerated = db.properties[n.property].states
+            if n.property != "behavior" and enumerated is not None:
+                assert n.value in enumerated
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_expansion_replays_recorded_offline_model_answers(name: str) -> None:
+    cache = CallCache(None)
+    cache.import_json(CASSETTES / f"{name}.json")
+    llm = LLM("local", cache=cache, replay=True)  # the model is not loaded: every answer is cached
+    behavior, limits = CASES[name]
+    graph = expand(behavior, llm, limits=limits)
+    assert llm.stats.total.model_calls == 0 and llm.stats.total.cache_hits > 0
+    _check(graph)
+    causes = [n for n in graph.events(None) if n.id != graph.root]
+    assert causes, "the recorded model proposed causes"
+    paths = graph.paths()
+    assert paths, "at least one simulatable cause chain"
+    for p in paths:
+        assert p.events[-1] == behavior.text and p.entities
+
+
+@pytest.mark.model
+@pytest.mark.usefixtures("shared_cache")
+def test_live_expansion_with_the_offline_model(tmp_path: Path) -> None:
+    pytest.importorskip("llama_cpp", reason="the 'local' extra is not installed")
+    behavior, _ = CASES["expand_driving"]
+    llm = LLM("local", cache=tmp_path / "c.sqlite")
+    graph = expand(behavior, llm, limits=Limits(max_depth=1, max_causes=2, max_entities=1))
+    _check(graph)
+    assert llm.stats.total.model_calls >= 2
+    assert len(graph.nodes) > 1
