@@ -142,3 +142,17 @@ def test_cli_rejects_bad_input_without_traceback(tmp_path: Path) -> None:
     assert res.exit_code == 2 and "describe the robot behavior" in res.output and "Traceback" not in res.output
     res = runner.invoke(app, ["generate", "x", "--domain", "flying", "--out", str(tmp_path / "r")])
     assert res.exit_code == 2 and "unknown domain 'flying'" in res.output
+
+
+def test_select_paths_prefers_distinct_causes_then_property_variants() -> None:
+    from regen.core.graph import CausePath, PathEntity
+    from regen.pipeline import select_paths
+
+    b = Behavior(text=STOP, domain="driving")
+    a = CausePath(behavior=b, events=["a jaywalker", STOP], entities=[
+        PathEntity(asset="adult", event="a jaywalker", properties={"start_location": ["roadside_ahead", "crosswalk_ahead"]})])
+    c = CausePath(behavior=b, events=["debris", STOP], entities=[PathEntity(asset="debris", event="debris")])
+    chosen = select_paths([a, c], 3)
+    assert [p.events[0] for p in chosen] == ["a jaywalker", "debris", "a jaywalker"]
+    assert [p.entities[0].properties.get("start_location") for p in chosen] == [
+        ["roadside_ahead"], None, ["crosswalk_ahead"]]

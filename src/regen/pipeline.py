@@ -94,12 +94,24 @@ def slug(text: str, n: int = 40) -> str:
 
 
 def select_paths(paths: list[CausePath], k: int) -> list[CausePath]:
-    """Up to ``k`` paths, different root causes first (diversity), then the rest in order."""
-    firsts, rest, seen = [], [], set()
-    for p in paths:
-        (rest if p.events[0] in seen else firsts).append(p)
+    """Up to ``k`` paths: one per root cause first (diversity across causes), then property
+    variants of the same causes (same cause, different properties), in graph order."""
+    variants = [p.variants() for p in paths]
+    firsts = [v[0] for v in variants]
+    rest = [p for v in variants for p in v[1:]]
+    seen: set[str] = set()
+    ordered: list[CausePath] = []
+    for p in firsts:
+        (rest if p.events[0] in seen else ordered).append(p)
         seen.add(p.events[0])
-    return (firsts + rest)[:k]
+    return (ordered + rest)[:k]
+
+
+def folder_names(paths: list[CausePath]) -> list[str]:
+    names: list[str] = []
+    for i, p in enumerate(paths, start=1):
+        names.append(f"{i:02d}-{slug(p.events[0])}")
+    return names
 
 
 def _verdict_for_error(exc: BaseException, status: str) -> Verdict:
@@ -211,7 +223,7 @@ def generate(behavior: Behavior, out: Path, *, settings: RunSettings | None = No
         save_graph(graph, out, pictures=settings.pictures)
         manifest.timings["expand"] = time.perf_counter() - t0
         paths = select_paths(graph.paths(), settings.max_scenarios)
-        names = [f"{i:02d}-{slug(p.events[0])}" for i, p in enumerate(paths, start=1)]
+        names = folder_names(paths)
         manifest.scenarios = names
         write_json(manifest_path, manifest)
         emit("paths", total=len(paths), names=names)

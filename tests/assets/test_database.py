@@ -30,7 +30,8 @@ def test_driving_database_has_the_issue_assets() -> None:
         assert a in db.assets, a
     assert db.property_candidates("ambulance", "siren") == ["on", "off"]
     assert db.property_candidates("traffic_light", "light_state")[:4] == ["red", "yellow", "green", "off"]
-    assert db.property_candidates("ambulance", "start_location") is None  # the model proposes these
+    assert "behind_adjacent_lane" in db.property_candidates("ambulance", "start_location")
+    assert load_database("manipulation").property_candidates("cup", "location") is None  # the model proposes these
     assert "cross_the_road" in db.property_candidates("adult", "behavior")
     assert "target_speed" in db.parameters_of("sedan")
 
@@ -83,3 +84,10 @@ def test_invalid_json_names_line(tmp_path: Path) -> None:
 def test_missing_file_is_a_config_error(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="neither a built-in domain"):
         load_database(tmp_path / "nope.json")
+
+
+def test_driving_start_locations_are_the_simulators_placements() -> None:
+    pytest.importorskip("scenic")
+    from regen.driving.primitives import LOCATIONS
+
+    assert set(load_database("driving").properties["start_location"].states) == set(LOCATIONS)

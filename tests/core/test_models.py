@@ -174,3 +174,17 @@ def test_unknown_domain_and_unknown_keys_are_refused() -> None:
         Behavior(text="x", domain="flying")  # type: ignore[arg-type]
     with pytest.raises(ValidationError):
         Behavior.model_validate({"text": "x", "domain": "driving", "txet": "typo"})
+
+
+def test_variants_split_multi_valued_properties() -> None:
+    p = CausePath(behavior=_behavior(), events=["a", "b"], entities=[
+        PathEntity(asset="ambulance", event="a", properties={"siren": ["on"], "start_location": ["x", "y"]}),
+        PathEntity(asset="sedan", event="a", properties={"target_speed": ["slow", "fast"]})])
+    vs = p.variants(limit=3)
+    assert len(vs) == 3
+    assert [(v.entities[0].properties["start_location"], v.entities[1].properties["target_speed"]) for v in vs] == [
+        (["x"], ["slow"]), (["x"], ["fast"]), (["y"], ["slow"])]
+    assert all(v.entities[0].properties["siren"] == ["on"] for v in vs)
+    assert p.entities[0].properties["start_location"] == ["x", "y"]  # the original is untouched
+    single = CausePath(behavior=_behavior(), events=["a", "b"])
+    assert single.variants() == [single]

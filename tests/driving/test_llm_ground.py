@@ -307,3 +307,42 @@ def test_over_strict_model_stage_is_relaxed_after_simulation():
     assert r.scenario.fsm.as_tuples()[2:] == [[("ego", "braking")], [("child1", "crossed")]]
     stage = r.verdict.stages[2]  # braking (t ~ 6 s) comes before the far sidewalk (t ~ 13 s)
     assert stage.conditions == ["ego: braking"] and 5.5 < stage.reached_at < 7.5
+
+
+# --- recorded answers of the offline model (scripts/record_cassettes.py ground) ---------------
+
+CASSETTES = Path(__file__).resolve().parents[1] / "data" / "cassettes"
+RECORDED = CASSETTES / "ground_driving.json"
+RECORDED_PATHS = CASSETTES / "ground_driving_paths.json"
+# What the offline model (Qwen2.5-Coder-1.5B, Q4_K_M) answered, as observed when recording:
+# key -> (grounder, model parts, verdict status)
+OBSERVED: dict[str, tuple[str, str, str]] = {}
+
+
+def _recorded_llm() -> LLM:
+    from regen.llm.cache import CallCache
+
+    cache = CallCache(None)
+    cache.import_json(RECORDED)
+    return LLM("local", cache=cache, replay=True)  # the model is never loaded: all answers are cached
+
+
+def _recorded_paths() -> dict:
+    from regen.core.graph import CausePath
+
+    return {k: CausePath.model_validate(v) for k, v in json.loads(RECORDED_PATHS.read_text()).items()}
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not RECORDED.exists(), reason="no recorded answers")
+@pytest.mark.parametrize("key", sorted(OBSERVED))
+def test_recorded_model_answers_ground_simulate_and_verify(key):
+    pytest.importorskip("scenic")
+    from regen.driving.backend import run_path
+
+    llm = _recorded_llm()
+    r = run_path(_recorded_paths()[key], llm=llm)
+    assert llm.stats.total.model_calls == 0 and llm.stats.total.cache_hits >= 2
+    grounder, parts, status = OBSERVED[key]
+    assert (r.scenario.world["grounder"], r.scenario.world["model_parts"]) == (grounder, parts)
+    assert r.verdict.status == status, r.verdict.reason

@@ -79,11 +79,13 @@ def test_impossible_chains_are_recorded_not_raised(key, status, words):
 def test_export_writes_config_and_a_scenic_file_that_compiles(tmp_path):
     import scenic
 
+    from regen.driving.backend import write_outputs
+
     r = result("stop_abruptly", 1)
-    files = DrivingBackend().export(r.scenario, tmp_path)
+    files = write_outputs(r, tmp_path)
     import json
 
-    cfg = json.loads(files["scenario"].read_text())
+    cfg = json.loads(files["scenario"].read_text())["config"]
     assert cfg["causal_graph"] == r.scenario.causal_graph
     assert any(v["blueprint_id"] == "vehicle.ford.ambulance" for v in cfg["vehicles"])
     assert cfg["fsm"][0][0][0] == "ambulance1"

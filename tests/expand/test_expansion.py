@@ -29,10 +29,9 @@ def _model(**kw) -> ScriptedModel:
                   "an ambulance approaches from behind": ["ambulance"],
                   "a traffic accident happened ahead": ["sedan", "police_car"],
                   "a tree fell in front": ["tree"]},
-        values={"start_location": ["behind the ego-vehicle in the same lane", "in front of the ego-vehicle"],
-                "end_location": ["in front of the ego-vehicle"]},
+        values={},
         choose={"siren": ["on"], "behavior": ["drive_forward", "fly"],
-                "start_location": ["behind the ego-vehicle in the same lane"]},
+                "start_location": ["behind_same_lane", "behind the moon"]},
     )
     base.update(kw)
     return ScriptedModel(**base)
@@ -59,7 +58,8 @@ def test_full_expansion_builds_events_entities_properties() -> None:
     props = {(n.label, n.status) for n in g.nodes.values() if n.kind == "property"}
     assert ("siren = on", "accepted") in props and ("siren = off", "rejected") in props
     assert ("behavior = fly", "rejected") in props and ("behavior = drive_forward", "accepted") in props
-    assert ("start_location = behind the ego-vehicle in the same lane", "accepted") in props
+    assert ("start_location = behind_same_lane", "accepted") in props
+    assert ("start_location = behind the moon", "rejected") in props  # not a placement the simulator has
     # every accepted node's decision names the model call that made it
     for n in g.nodes.values():
         if n.status == "accepted" and n.id != g.root:
@@ -170,7 +170,8 @@ def test_manipulation_uses_the_same_code() -> None:
     (p,) = g.paths()
     assert {e.asset for e in p.entities} == {"pet", "door"}
     pet = next(e for e in p.entities if e.asset == "pet")
-    assert pet.properties["location"] == ["outside the door"]
+    assert pet.properties["location"] == ["outside the door"]  # a value the model proposed, then chose
+    assert "values" in model.kinds  # free values (locations) are proposed by the model
 
 
 def test_run_expand_writes_json_png_and_offline_html(tmp_path: Path) -> None:

@@ -73,6 +73,24 @@ class CausePath(Model):
     events: list[str] = Field(min_length=1)
     entities: list[PathEntity] = Field(default_factory=list)
 
+    def variants(self, limit: int = 4) -> list[CausePath]:
+        """One path per combination of property values (the graph may accept several values of a
+        property, e.g. two start locations): same cause, different properties. At most ``limit``,
+        in a stable order; a path with single values is its own only variant."""
+        import itertools
+
+        slots = [(i, prop, vals) for i, e in enumerate(self.entities)
+                 for prop, vals in e.properties.items() if len(vals) > 1]
+        if not slots:
+            return [self]
+        out: list[CausePath] = []
+        for combo in itertools.islice(itertools.product(*(vals for _, _, vals in slots)), limit):
+            ents = [e.model_copy(deep=True) for e in self.entities]
+            for (i, prop, _), value in zip(slots, combo, strict=True):
+                ents[i].properties[prop] = [value]
+            out.append(self.model_copy(update={"entities": ents}))
+        return out
+
     @property
     def key(self) -> str:
         """A stable short id for the path (used as the scenario folder name suffix)."""

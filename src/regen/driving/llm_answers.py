@@ -23,7 +23,7 @@ import re
 from dataclasses import dataclass
 from typing import Annotated, Any, Literal
 
-from pydantic import Field, create_model, field_validator, model_validator
+from pydantic import AfterValidator, Field, create_model, field_validator, model_validator
 
 from regen.assets.database import AssetDatabase
 from regen.core.base import Answer
@@ -109,6 +109,16 @@ def _lit(values: tuple[str, ...]) -> Any:
     return Literal[values]  # type: ignore[valid-type]
 
 
+def _narrative(text: str) -> str:
+    text = " ".join(text.split())
+    if len(text) < 10:
+        raise ValueError("the narrative is empty or too short: tell in one or two sentences "
+                         "what happens and why the ego-vehicle reacts")
+    if len(text) > NARRATIVE_CHARS:  # cut at a word rather than spend a re-ask on length
+        text = text[:NARRATIVE_CHARS].rsplit(" ", 1)[0] + " ..."
+    return text
+
+
 def role_schema(options: list[RoleOptions], defaults: list[RoleChoice],
                 template: EgoTemplate) -> type[Answer]:
     """The per-path roles schema: ``narrative`` and per actor behavior, start and speed.
@@ -118,9 +128,9 @@ def role_schema(options: list[RoleOptions], defaults: list[RoleChoice],
     """
     from regen.driving.ground import choose_map
 
-    fields: dict[str, Any] = {"narrative": (Annotated[str, Field(
-        min_length=10, max_length=NARRATIVE_CHARS,
-        description="one or two sentences: what happens and why the ego reacts")], ...)}
+    # No length bounds in the JSON schema: llama.cpp turns maxLength into a deeply nested
+    # grammar rule that made constrained decoding ~4x slower; the validator bounds it instead.
+    fields: dict[str, Any] = {"narrative": (Annotated[str, AfterValidator(_narrative)], ...)}
     for o in options:
         if len(o.primitives) > 1:
             fields[f"{o.name}_behavior"] = (_lit(o.primitives), ...)
@@ -299,6 +309,8 @@ def _ego_never(call: PredicateCall, t: EgoTemplate) -> str | None:
         return why
     if name == "braking" and t.id in ("drive_forward", "change_lane"):
         return why
+    if name == "accelerating" and t.id != "drive_forward":  # starts at its cruising speed
+        return why
     if name == "in_junction" and t.id == "stop_abruptly":
         return why + " and stops before any junction"
     if name == "on_sidewalk":
@@ -306,6 +318,11 @@ def _ego_never(call: PredicateCall, t: EgoTemplate) -> str | None:
     if name in _PROPERTY_PREDICATES:
         return f"{call} never holds: the ego has no such property in this toolkit"
     return None
+
+
+def max_states(n_actors: int) -> int:
+    """How many states an FSM answer may have (the ego included in ``n_actors``)."""
+    return min(MAX_STATES, 2 * n_actors + 1)
 
 
 def available(roles: list[RoleChoice], template: EgoTemplate) -> list[PredicateSpec]:
@@ -343,7 +360,8 @@ def fsm_schema(roles: list[RoleChoice], template: EgoTemplate) -> type[Answer]:
     class State(Answer):
         stage: _lit(tuple(range(1, MAX_STAGES + 1)))  # type: ignore[valid-type]
         actor: Actor  # type: ignore[valid-type]
-        name: Annotated[str, Field(json_schema_extra={"pattern": _STATE_NAME.pattern})]
+        # unbounded in the schema (a bounded repeat is a slow nested grammar rule)
+        name: Annotated[str, Field(json_schema_extra={"pattern": "^[a-z][a-z0-9_]*$"})]
         holds: list[CallText] = Field(min_length=1, max_length=3)  # type: ignore[valid-type]
 
         @field_validator("name")
@@ -368,15 +386,18 @@ def fsm_schema(roles: list[RoleChoice], template: EgoTemplate) -> type[Answer]:
             return self
 
     class GroundFSM(Answer):
-        states: list[State] = Field(min_length=2, max_length=MAX_STATES)
+        # a short list: the small model pads long ones with repeats
+        states: list[State] = Field(min_length=2, max_length=max_states(len(actors)))
 
         @model_validator(mode="after")
         def _whole(self) -> GroundFSM:
-            seen: set[tuple[str, str]] = set()
+            # the same state may recur in several stages; two meanings under one name may not
+            seen: dict[tuple[str, str], list[str]] = {}
             for s in self.states:
-                if (s.actor, s.name) in seen:
-                    raise ValueError(f"{s.actor} has two states named {s.name!r}; rename one")
-                seen.add((s.actor, s.name))
+                holds = [" ".join(h.split()) for h in s.holds]
+                if seen.setdefault((s.actor, s.name), holds) != holds:
+                    raise ValueError(f"{s.actor} has two different states named {s.name!r}; "
+                                     "rename one")
             missing = [a for a in actors if a not in {s.actor for s in self.states}]
             if missing:
                 raise ValueError(f"no state for {', '.join(missing)}: give every actor, the ego "
@@ -394,10 +415,14 @@ def fsm_schema(roles: list[RoleChoice], template: EgoTemplate) -> type[Answer]:
 
 def answer_fsm(answer: Any, specs: dict[str, PredicateSpec], actors: list[str]) -> FSM:
     """The FSM of a validated answer: stages in order of their numbers (gaps closed)."""
-    states = [AbstractState(name=s.name, actor=s.actor,
-                            all_of=[parse_call(c, specs, actors) for c in s.holds])
-              for s in answer.states]
-    numbers = sorted({s.stage for s in answer.states})
-    stages = [Stage(conditions=[StateRef(actor=s.actor, state=s.name) for s in answer.states
-                                if s.stage == k]) for k in numbers]
-    return FSM(states=states, stages=stages)
+    states: dict[tuple[str, str], AbstractState] = {}
+    for s in answer.states:
+        states.setdefault((s.actor, s.name), AbstractState(
+            name=s.name, actor=s.actor, all_of=[parse_call(c, specs, actors) for c in s.holds]))
+    stages: list[Stage] = []
+    for k in sorted({s.stage for s in answer.states}):
+        refs = list(dict.fromkeys((s.actor, s.name) for s in answer.states if s.stage == k))
+        stage = Stage(conditions=[StateRef(actor=a, state=n) for a, n in refs])
+        if not stages or stage != stages[-1]:  # a repeated stage adds nothing
+            stages.append(stage)
+    return FSM(states=list(states.values()), stages=stages)

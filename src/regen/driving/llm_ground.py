@@ -38,11 +38,11 @@ from regen.driving.ground import (
     template_of,
 )
 from regen.driving.llm_answers import (
-    MAX_STATES,
     RoleOptions,
     available,
     chosen_roles,
     fsm_schema,
+    max_states,
     role_options,
     role_schema,
 )
@@ -133,7 +133,7 @@ def fsm_prompt(narrative: str, roles: list[RoleChoice], template: EgoTemplate) -
     preds = [f"{s.signature()}: {s.doc}" for s in available(roles, template)]
     return render(PKG, "ground_fsm", narrative=narrative, ego=template.description,
                   actors=[_actor_line(r) for r in roles], predicates=preds,
-                  min_states=len(roles) + 2, max_states=MAX_STATES)
+                  min_states=len(roles) + 2, max_states=max_states(len(roles) + 1))
 
 
 class _Grounding:
