@@ -247,10 +247,13 @@ def load_scenario(run_dir: Path, folder: str, number: int) -> ScenarioView:
     rel = ("scenarios", folder)
     view.files = {name: href(*rel, name) for name in LINKED_FILES if (d / name).is_file()}
     view.xodr = [(p.name, href(*rel, p.name)) for p in sorted(d.glob("*.xodr")) if p.is_file()]
-    if (d / "bird_eye.gif").is_file():
-        view.gif = href(*rel, "bird_eye.gif")
-    if (d / "keyframes.png").is_file():
-        view.keyframes = href(*rel, "keyframes.png")
+    # driving draws bird_eye.gif + keyframes.png; manipulation renders run.gif + strip.png
+    gif = next((n for n in ("bird_eye.gif", "run.gif") if (d / n).is_file()), None)
+    frames = next((n for n in ("keyframes.png", "strip.png") if (d / n).is_file()), None)
+    if gif:
+        view.gif = href(*rel, gif)
+    if frames:
+        view.keyframes = href(*rel, frames)
     return view
 
 
