@@ -259,6 +259,8 @@ def test_never_holds_knows_primitives_properties_and_maps():
     assert "door stays closed" in why("door_open(ambulance1)")
     assert why("stopped(ego)") is None and "ego" in why("turning(ego)")
     assert why("not turning(ego)") is None  # a negated impossibility always holds
+    assert "at most 10 m/s" in why("moving(ego, min_speed=10)") and why("moving(ego, min_speed=9)") is None
+    assert "at most 18 m/s" in why("moving(ambulance1, min_speed=20)")  # fast: 12-18 m/s
     light = ground_rule_based(FEASIBLE["drive_forward"][0])  # red, then green
     lroles = {r.name: r for r in roles_of(light)}
     lt = template_of(light)
@@ -282,6 +284,8 @@ def test_fsm_schema_constrains_names_for_constrained_decoding():
     rx = re.compile(pattern)
     assert rx.match("on_road(child1)") and rx.match("not in_front(child1, ego, distance=2)")
     assert not rx.match("siren_on(child1)") and not rx.match("moving(bob)")
+    assert rx.match("moving(ego, min_speed=2.5)") and not rx.match("moving(ego, speed=2.5)")
+    assert not rx.match("behind(ego)") and not rx.match("moving(ego, child1)")
 
 
 # --- through simulation ----------------------------------------------------------------------
@@ -316,7 +320,14 @@ RECORDED = CASSETTES / "ground_driving.json"
 RECORDED_PATHS = CASSETTES / "ground_driving_paths.json"
 # What the offline model (Qwen2.5-Coder-1.5B, Q4_K_M) answered, as observed when recording:
 # key -> (grounder, model parts, verdict status)
-OBSERVED: dict[str, tuple[str, str, str]] = {}
+# its FSMs asked for `moving(ego, min_speed=10)` from an ego that drives at exactly 10 m/s, kept
+# doing so when re-asked, and fell back to the rules (verified); for the red light its own FSM
+# wants the light green again after red, which never happens (a recorded, honest failure).
+OBSERVED: dict[str, tuple[str, str, str]] = {
+    "jaywalker": ("model+rules", "narrative,roles", "verified"),
+    "ambulance": ("model+rules", "narrative,roles", "verified"),
+    "red_light": ("model", "narrative,roles,fsm", "fsm_incomplete"),
+}
 
 
 def _recorded_llm() -> LLM:
@@ -346,3 +357,8 @@ def test_recorded_model_answers_ground_simulate_and_verify(key):
     grounder, parts, status = OBSERVED[key]
     assert (r.scenario.world["grounder"], r.scenario.world["model_parts"]) == (grounder, parts)
     assert r.verdict.status == status, r.verdict.reason
+    if "fsm" not in parts:
+        assert "never holds" in r.scenario.world["grounding_notes"]
+        assert r.scenario.fsm == rule_based_fsm(roles_of(r.scenario), template_of(r.scenario))
+    else:
+        assert r.verdict.first_unmet_stage == 4 and "turning_green" in r.verdict.reason

@@ -194,3 +194,11 @@ def test_hostile_labels_are_escaped_in_html(tmp_path: Path) -> None:
     page = (tmp_path / "graph.html").read_text()
     assert "<script>alert(1)" not in page
     assert page.count("<script>") == 1
+
+
+def test_entity_aliases_resolve_to_database_assets() -> None:
+    model = _model(entities={"a jaywalker walked in front": ["pedestrian"],
+                             "an ambulance approaches from behind": ["emergency vehicle"]})
+    g = _run(model, Limits(max_depth=1))
+    assets = {n.asset for n in g.nodes.values() if n.kind == "entity" and n.status == "accepted"}
+    assert {"adult", "ambulance"} <= assets

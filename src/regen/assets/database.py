@@ -31,6 +31,7 @@ class AssetSpec(Model):
     description: str
     size: tuple[float, float, float] = (1.0, 1.0, 1.0)  # length, width, height [m]
     blueprint: str | None = None  # CARLA blueprint id, for export
+    aliases: list[str] = Field(default_factory=list)  # other names a model may use ('pedestrian')
     properties: list[str] = Field(default_factory=list)
     behaviors: list[str] = Field(default_factory=list)
 
@@ -90,6 +91,14 @@ class AssetDatabase(Model):
         for a in self.assets:
             seen.setdefault(a, None)
         return list(seen)
+
+    def resolve(self, name: str) -> str | None:
+        """The asset a model-written name means: the id itself, or one of its aliases."""
+        key = " ".join(name.lower().replace("_", " ").replace("-", " ").split())
+        for aid, spec in self.assets.items():
+            if key == aid.replace("_", " ") or key in (a.lower() for a in spec.aliases):
+                return aid
+        return None
 
     def category_of(self, asset: str) -> str | None:
         for cat, members in self.categories.items():

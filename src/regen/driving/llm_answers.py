@@ -31,7 +31,12 @@ from regen.core.scenario import FSM, AbstractState, PredicateCall, Stage, StateR
 from regen.driving.ego import EgoTemplate
 from regen.driving.fsm_rules import RoleChoice
 from regen.driving.maps import geometry
-from regen.driving.primitives import PEDESTRIAN_ASSETS, PRIMITIVE_LOCATIONS
+from regen.driving.primitives import (
+    PEDESTRIAN_ASSETS,
+    PRIMITIVE_LOCATIONS,
+    VEHICLE_SPEEDS,
+    WALK_SPEEDS,
+)
 from regen.driving.solve import STATE_ONLY
 from regen.errors import GroundingError
 from regen.verify.predicates import PredicateSpec, list_predicates
@@ -186,12 +191,22 @@ def chosen_roles(answer: Any, options: list[RoleOptions], defaults: list[RoleCho
 
 
 def call_pattern(specs: list[PredicateSpec], actors: list[str]) -> str:
-    """The regex of a predicate call over exact predicate and actor names (for the schema)."""
+    """The regex of a predicate call over exact predicate, actor and parameter names (for the
+    schema): constrained decoding can then write no unknown name at all."""
     who = "(" + "|".join(re.escape(a) for a in actors) + ")"
-    unary = "|".join(s.name for s in specs if s.arity == 1)
-    binary = "|".join(s.name for s in specs if s.arity == 2)
-    param = r"(, [a-z_]+=[a-z0-9.]+)?"
-    return rf"^(not )?(({unary})\({who}|({binary})\({who}, {who}){param}\)$"
+    num = "[0-9]+([.][0-9]+)?"  # no backslash escapes: they do not survive the grammar
+    alts = []
+    for s in specs:
+        args = ", ".join([who] * s.arity)
+        params = []
+        for k, default in s.params.items():
+            if s.name == "light_is" and k == "value":
+                params.append(f"{k}=({'|'.join(LIGHT_VALUES)})")
+            elif not isinstance(default, str):
+                params.append(f"{k}={num}")
+        extra = f"(, ({'|'.join(params)}))?" if params else ""
+        alts.append(rf"{s.name}\({args}{extra}\)")
+    return "^(not )?(" + "|".join(alts) + ")$"
 
 
 def parse_call(text: str, specs: dict[str, PredicateSpec], actors: list[str]) -> PredicateCall:
@@ -260,6 +275,9 @@ def never_holds(call: PredicateCall, roles: dict[str, RoleChoice], template: Ego
     r = roles.get(a)
     if r is None:
         return None
+    top = _top_speed(r)
+    if name in ("moving", "steady") and top is not None and _min_speed(call) >= top:
+        return f"{call} never holds: {a} ({r.speed_class}) moves at most {top:g} m/s"
     props = r.properties
     if r.asset in STATE_ONLY:
         still = r.asset == "traffic_light"  # sensors ride on the ego and move with it
@@ -298,9 +316,25 @@ def never_holds(call: PredicateCall, roles: dict[str, RoleChoice], template: Ego
     return None
 
 
+def _min_speed(call: PredicateCall) -> float:
+    default = 0.5 if call.name == "moving" else 2.0
+    return float(call.params.get("min_speed", default))
+
+
+def _top_speed(r: RoleChoice) -> float | None:
+    """The highest speed [m/s] the solver may give the actor (None: not a moving primitive)."""
+    if r.asset in STATE_ONLY or r.primitive not in _MOVING_PRIMITIVES:
+        return None
+    table = WALK_SPEEDS if r.asset in PEDESTRIAN_ASSETS else VEHICLE_SPEEDS
+    return table.get(r.speed_class, table["fast"])[1]
+
+
 def _ego_never(call: PredicateCall, t: EgoTemplate) -> str | None:
     name = call.name
     why = f"{call} never holds: the ego {t.description}"
+    top = max([t.speed0] + [v for _, v, _ in t.schedule])
+    if name in ("moving", "steady") and _min_speed(call) >= top:
+        return f"{call} never holds: the ego drives at most {top:g} m/s"
     if name == "turning" and t.id != "stop_after_turn":
         return why
     if name == "changing_lane" and t.id not in ("change_lane", "stop_after_turn"):

@@ -86,7 +86,7 @@ def select_entities(llm: LLM, db: AssetDatabase, domain: str, chain: list[str]) 
     got = llm.ask(prompt, EntitySelection, purpose="entity_edges", system=system_prompt(domain))
     out = Judged(call_id=got.call_id)
     for ch in got.value.entities:
-        target = _match(ch.name, options)
+        target = _match(ch.name, options) or db.resolve(ch.name)
         if target is None:
             out.unknown[ch.name] = "not in the simulator's asset database"
         else:
