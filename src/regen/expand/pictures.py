@@ -169,7 +169,8 @@ li{{margin-bottom:6px}} .k{{color:#777}} label{{font-size:12px}}
 <div id="side"><h1>{title}</h1>
 <div class="legend">{legend}</div>
 <p class="k">Stopped: {stop}</p>
-<label><input type="checkbox" id="showrej" checked> show rejected and unsimulatable</label>
+<label><input type="checkbox" id="showrej" checked> show rejected and unsimulatable events and entities</label><br>
+<label><input type="checkbox" id="showvals"> show every rejected property value</label>
 <div id="info"><p>Click a node to see who proposed, accepted or rejected it, and why.</p></div></div>
 <script>
 const G = {data};
@@ -180,20 +181,22 @@ function el(n, a) {{ const e = document.createElementNS(NS, n); for (const k in 
 function esc(s) {{ const d = document.createElement('div'); d.textContent = s; return d.innerHTML; }}
 function draw() {{
   const showRej = document.getElementById('showrej').checked;
+  const all = document.getElementById('showvals').checked;
+  for (const id in G.nodes) {{ const n = G.nodes[id]; n.px = all ? n.x : n.cx; n.py = all ? n.y : n.cy; }}
   svg.innerHTML = '';
   const defs = el('defs', {{}}); const m = el('marker', {{id:'arrow', viewBox:'0 0 10 10', refX:'10', refY:'5', markerWidth:'7', markerHeight:'7', orient:'auto'}});
   m.appendChild(el('path', {{d:'M0,0 L10,5 L0,10 z', fill:'#666'}})); defs.appendChild(m); svg.appendChild(defs);
   let maxX = 0, maxY = 0;
-  const vis = n => showRej || !n.muted;
+  const vis = n => n.px !== null && (showRej || !n.muted);
   for (const e of G.edges) {{
     const a = G.nodes[e.source], b = G.nodes[e.target];
     if (!vis(a) || !vis(b)) continue;
-    const x0 = PAD + a.x * GX + W, y0 = PAD + a.y * GY + H / 2, x1 = PAD + b.x * GX, y1 = PAD + b.y * GY + H / 2;
+    const x0 = PAD + a.px * GX + W, y0 = PAD + a.py * GY + H / 2, x1 = PAD + b.px * GX, y1 = PAD + b.py * GY + H / 2;
     svg.appendChild(el('path', {{d:`M${{x0}},${{y0}} C${{x0 + 30}},${{y0}} ${{x1 - 30}},${{y1}} ${{x1}},${{y1}}`, class:'edge ' + e.status}}));
   }}
   for (const id in G.nodes) {{
     const n = G.nodes[id]; if (!vis(n)) continue;
-    const x = PAD + n.x * GX, y = PAD + n.y * GY; maxX = Math.max(maxX, x + W); maxY = Math.max(maxY, y + H);
+    const x = PAD + n.px * GX, y = PAD + n.py * GY; maxX = Math.max(maxX, x + W); maxY = Math.max(maxY, y + H);
     const g = el('g', {{class:'node' + (n.muted ? ' muted' : ''), 'data-id': id}});
     g.appendChild(el('rect', {{x, y, width:W, height:H, rx: n.kind === 'entity' ? 2 : 12, fill:n.color, 'fill-opacity': n.muted ? 0.45 : 1}}));
     const lines = n.lines;
@@ -211,6 +214,7 @@ function show(id, g) {{
   document.getElementById('info').innerHTML = h + '</ol>';
 }}
 document.getElementById('showrej').addEventListener('change', draw);
+document.getElementById('showvals').addEventListener('change', draw);
 draw();
 </script></body></html>
 """
@@ -219,13 +223,21 @@ draw();
 def write_html(graph: ScenarioGraph, path: Path) -> Path:
     """An interactive page: click a node for its history. Self-contained, works offline."""
     pos = layout(graph)
+    # a second layout without the rejected property values: the page opens with it, so the
+    # causes are on screen first; a checkbox brings every rejected value back
+    slim = graph.model_copy(deep=True)
+    for nid in [n.id for n in slim.nodes.values() if n.kind == "property" and n.status != "accepted"]:
+        del slim.nodes[nid]
+    slim.edges = [e for e in slim.edges if e.source in slim.nodes and e.target in slim.nodes]
+    slim_pos = layout(slim)
     nodes = {}
     for nid, (x, y) in pos.items():
         n = graph.nodes[nid]
         color, alpha = _color(graph, nid)
         label = n.label + (" (not simulatable)" if n.status == "unsimulatable" else
                            " (rejected)" if n.status == "rejected" else "")
-        nodes[nid] = {"x": x, "y": y, "kind": n.kind, "status": n.status, "label": n.label,
+        cx, cy = slim_pos.get(nid, (None, None))
+        nodes[nid] = {"x": x, "y": y, "cx": cx, "cy": cy, "kind": n.kind, "status": n.status, "label": n.label,
                       "lines": _wrap(label, 34).split("\n")[:3], "color": color, "muted": alpha < 1,
                       "history": [d.model_dump() for d in n.history]}
     edges = [{"source": e.source, "target": e.target, "status": e.status} for e in graph.edges
