@@ -48,6 +48,10 @@ def friendly(fn: F) -> F:
 def _root(verbose: bool = typer.Option(False, "--verbose", "-v", help="Log details to stderr.")) -> None:
     logging.basicConfig(level=logging.INFO if verbose else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
+    import warnings
+
+    # Scenic warns on import that it cannot own sys.excepthook; we format errors ourselves
+    warnings.filterwarnings("ignore", message="unable to install sys.excepthook")
 
 
 @app.command("assets")
@@ -223,7 +227,7 @@ def generate_cmd(
     replay: bool = typer.Option(False, "--replay", help="Forbid model calls: cached answers only"),
     depth: int = typer.Option(1, "--depth", min=1, max=6, help="Event layers behind the behavior"),
     max_nodes: int = typer.Option(8, "--max-nodes", min=1, help="Most cause events to accept"),
-    scenarios: int = typer.Option(3, "--scenarios", "-n", min=1, help="Most scenarios to simulate"),
+    scenarios: int = typer.Option(2, "--scenarios", "-n", min=1, help="Most scenarios to simulate"),
     causes: int = typer.Option(3, "--causes", min=1, max=12, help="Causes proposed per event"),
     prior: str = typer.Option(None, "--prior", help="Steer proposals, e.g. 'police car'"),
     candidate: list[str] = typer.Option(None, "--candidate", help="A cause to judge too (repeatable)"),

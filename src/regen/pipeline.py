@@ -39,7 +39,7 @@ class RunSettings(Model):
     llm: str = "local"
     depth: int = 1
     max_nodes: int = 8
-    max_scenarios: int = 3
+    max_scenarios: int = 2
     causes: int = 3
     max_entities: int = 2  # entities kept per event
     prior: str | None = None
