@@ -91,8 +91,14 @@ def _one(values: list[str], what: str, entity: str) -> str | None:
     return uniq[0] if uniq else None
 
 
-def rule_based_roles(path: CausePath, db: AssetDatabase) -> list[RoleChoice]:
-    """Roles from the path's entities and properties, with per-asset defaults."""
+def rule_based_roles(path: CausePath, db: AssetDatabase, notes: list[str] | None = None) -> list[RoleChoice]:
+    """Roles from the path's entities and properties, with per-asset defaults.
+
+    Strict by default: a start location no rule can place is a GroundingError. With a ``notes``
+    list, unplaceable locations and unsupported behaviors get the defaults instead and a note
+    (model grounding starts from these). Unknown assets and contradictory values always raise:
+    nothing can fix the path itself.
+    """
     roles: list[RoleChoice] = []
     counts: dict[str, int] = {}
     for pe in path.entities:
@@ -105,13 +111,19 @@ def rule_based_roles(path: CausePath, db: AssetDatabase) -> list[RoleChoice]:
             v = _one(vals, key, name)
             if v is not None:
                 props[key] = v
-        prim = props.pop("behavior", None) or _default_primitive(db, pe.asset)
+        prim = props.pop("behavior", None)
+        if notes is not None and prim is not None and prim not in db.assets[pe.asset].behaviors:
+            notes.append(f"{name}: a {pe.asset} cannot {prim!r}")
+            prim = None
+        prim = prim or _default_primitive(db, pe.asset)
         loc_text = props.pop("start_location", None)
         props.pop("end_location", None)
         loc = location_from_text(loc_text) if loc_text else None
         if loc_text and loc is None:
-            raise GroundingError(f"{name}: cannot place start location {loc_text!r}; use one of "
-                                 f"{', '.join(LOCATIONS)}")
+            if notes is None:
+                raise GroundingError(f"{name}: cannot place start location {loc_text!r}; use one of "
+                                     f"{', '.join(LOCATIONS)}")
+            notes.append(f"{name}: cannot place start location {loc_text!r}")
         speed = props.pop("target_speed", "moderate")
         roles.append(RoleChoice(name=name, asset=pe.asset, primitive=prim,
                                 location=loc or default_location(prim, pe.asset),

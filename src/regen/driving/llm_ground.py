@@ -33,8 +33,8 @@ from regen.driving.fsm_rules import RoleChoice
 from regen.driving.ground import (
     build_scenario,
     default_narrative,
-    location_from_text,
     roles_of,
+    rule_based_roles,
     template_of,
 )
 from regen.driving.llm_answers import (
@@ -46,7 +46,7 @@ from regen.driving.llm_answers import (
     role_options,
     role_schema,
 )
-from regen.driving.primitives import LOCATIONS, PEDESTRIAN_ASSETS, default_location
+from regen.driving.primitives import LOCATIONS
 from regen.errors import ConfigError, GroundingError, MalformedAnswerError
 from regen.prompting import render
 from regen.verify.monitor import validate_fsm
@@ -63,43 +63,11 @@ PARTS = ("narrative", "roles", "fsm")
 
 
 def path_roles(path: CausePath, db: AssetDatabase) -> tuple[list[RoleChoice], list[str]]:
-    """Rule-based roles from the path, tolerant of start-location texts no rule can place
-    (those get the primitive's default and a note). GroundingError for unknown assets and
-    contradictory property values: no answer can fix the path itself."""
-    roles: list[RoleChoice] = []
+    """Rule-based roles from the path, tolerant of start locations no rule can place and of
+    unsupported behaviors (those get defaults and a note). GroundingError for unknown assets
+    and contradictory property values: no answer can fix the path itself."""
     notes: list[str] = []
-    counts: dict[str, int] = {}
-    for pe in path.entities:
-        if pe.asset not in db.assets:
-            raise GroundingError(f"the asset {pe.asset!r} is not in the driving database")
-        counts[pe.asset] = counts.get(pe.asset, 0) + 1
-        name = f"{pe.asset}{counts[pe.asset]}"
-        props: dict[str, str] = {}
-        for key, vals in pe.properties.items():
-            uniq = list(dict.fromkeys(vals))
-            if len(uniq) > 1:
-                raise GroundingError(f"contradictory properties: {name} has {key} = "
-                                     f"{' and '.join(uniq)} at once; keep one value")
-            if uniq:
-                props[key] = uniq[0]
-        behaviors = db.assets[pe.asset].behaviors
-        prim = props.pop("behavior", None)
-        if prim is None or prim not in behaviors:
-            if prim is not None:
-                notes.append(f"{name}: a {pe.asset} cannot {prim!r}")
-            prim = ("cross_the_road" if pe.asset in PEDESTRIAN_ASSETS and "cross_the_road" in behaviors
-                    else "drive_forward" if "drive_forward" in behaviors
-                    else "stationary" if "stationary" in behaviors else "")
-        loc_text = props.pop("start_location", None)
-        props.pop("end_location", None)
-        loc = location_from_text(loc_text) if loc_text else None
-        if loc_text and loc is None:
-            notes.append(f"{name}: cannot place start location {loc_text!r}")
-        speed = props.pop("target_speed", "moderate")
-        roles.append(RoleChoice(name=name, asset=pe.asset, primitive=prim,
-                                location=loc or default_location(prim, pe.asset),
-                                speed_class=speed, properties=props))
-    return roles, notes
+    return rule_based_roles(path, db, notes=notes), notes
 
 
 def _hints(pe_props: dict[str, list[str]]) -> str:
