@@ -11,3 +11,13 @@ def _isolated_cache(_driving_cache, monkeypatch):
     """Overrides the root fixture: driving tests share one cache per session, so each map is
     generated (and parsed by Scenic into its .snet) once, not once per test."""
     monkeypatch.setenv("REGEN_CACHE_DIR", str(_driving_cache))
+
+
+@pytest.fixture(scope="module")
+def straight_map(tmp_path_factory):
+    """The generated straight-road map in a cache of its own (module scope: drawn tests share it)."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("REGEN_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
+        from regen.driving.maps import ensure_map
+
+        yield ensure_map("straight")

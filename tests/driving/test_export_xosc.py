@@ -19,15 +19,6 @@ from regen.errors import ConfigError  # noqa: E402
 DT = 0.1  # [s]
 
 
-@pytest.fixture(scope="module")
-def straight_map(tmp_path_factory):
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("REGEN_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
-        from regen.driving.maps import ensure_map
-
-        yield ensure_map("straight")
-
-
 def _case(map_path, names=("ego", "ambulance1", "adult1", "cone1"), narrative="an ambulance passes"):
     """Ego at 8 m/s, an ambulance at 12 m/s, a pedestrian crossing, a cone standing; 3 s."""
     t = np.round(np.arange(0, 3.0 + 1e-9, DT), 6)

@@ -27,15 +27,6 @@ from regen.errors import ConfigError  # noqa: E402
 DT = 0.1  # [s]
 
 
-@pytest.fixture(scope="module")
-def straight_map(tmp_path_factory):
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("REGEN_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
-        from regen.driving.maps import ensure_map
-
-        yield ensure_map("straight")
-
-
 def _scenario(actors: dict[str, str], stages: int) -> Scenario:
     names = list(actors)
     states = [AbstractState(name=f"s{k}", actor=names[k % len(names)],
