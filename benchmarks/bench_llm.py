@@ -38,10 +38,9 @@ def main() -> None:
     print(f"model: {path.name} ({path.stat().st_size / 1e9:.2f} GB), cores: {os.cpu_count()}")
     print(f"join+verify (first use, else stamp check): {t1 - t0:.2f} s")
     print(f"load time: {t2 - t1:.2f} s")
-    messages = [{"role": "user", "content": PROMPT}]
     sampling = Sampling(max_tokens=args.tokens)
     for label, schema in (("without schema", None), ("with schema", Causes.model_json_schema())):
-        rates, prompt_rates = [], []
+        rates = []
         for i in range(args.repeats):
             # a distinct prompt each time so llama.cpp's prefix cache does not hide prompt cost
             msgs = [{"role": "user", "content": f"[{label} {i}] " + PROMPT}]
@@ -49,10 +48,8 @@ def main() -> None:
             c = prov.complete(msgs, schema=schema, sampling=sampling)
             el = time.perf_counter() - s
             rates.append(c.output_tokens / el)
-            prompt_rates.append(c.input_tokens)
         print(f"{label}: {sum(rates) / len(rates):.1f} tokens/s end to end "
               f"({c.output_tokens} output tokens, {c.input_tokens} prompt tokens per call, {args.repeats} calls)")
-    _ = messages
 
 
 if __name__ == "__main__":

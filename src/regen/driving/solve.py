@@ -155,32 +155,25 @@ def _add_actor(M: _Model, a: ActorSpec) -> None:  # noqa: C901 - one table of ca
         clear = abs(side_d - ego_d) + fr.lane_width / 2 + W / 2  # to its far edge [m]
         # time [ds] to walk `dist` [m] at v [dm/s] is dist*100/v: keep t + dist/v in a window via
         # (window - t) * v compared with dist * 100
+        def walk_window(early: float, late: float, dist: float, early_text: str, late_text: str) -> None:
+            """Cover ``dist`` [m] no later than ``early`` s and no sooner than ``late`` s before te."""
+            for tag, offset, text, at_least in (("lo", early, early_text, True), ("hi", late, late_text, False)):
+                slack = M.m.NewIntVar(-10000, 10000, f"{n}.slack_{tag}")
+                M.m.Add(slack == int((te - offset) * DM) - t)
+                prod = M.product(n, f"walk_{tag}", slack, v, 10 ** 7)
+                M.require(f"{n}: {text}", prod >= int(dist * 100) if at_least else prod <= int(dist * 100))
+
         if e.speed_event == 0.0 and not stops:  # the ego waits: pedestrians clear its lane first
             lo_s, hi_s = e.s_event + EGO_SIZE[0] / 2 + 1.5, e.s_event + EGO_SIZE[0] / 2 + 8.0
-            slack_lo = M.m.NewIntVar(-10000, 10000, f"{n}.slack_lo")
-            M.m.Add(slack_lo == int((te - 0.3) * DM) - t)
-            prod = M.product(n, "walk_lo", slack_lo, v, 10 ** 7)
-            M.require(f"{n}: has crossed the ego's lane by 0.3 s before the ego starts",
-                      prod >= int(clear * 100))
-            slack_hi = M.m.NewIntVar(-10000, 10000, f"{n}.slack_hi")
-            M.m.Add(slack_hi == int((te - 2.5) * DM) - t)
-            prod2 = M.product(n, "walk_hi", slack_hi, v, 10 ** 7)
-            M.require(f"{n}: is still crossing 2.5 s before the ego starts", prod2 <= int(clear * 100))
+            walk_window(0.3, 2.5, clear, "has crossed the ego's lane by 0.3 s before the ego starts",
+                        "is still crossing 2.5 s before the ego starts")
         else:
             if stops:
                 lo_s, hi_s = ego_end + EGO_SIZE[0] / 2 + 1.5, ego_end + EGO_SIZE[0] / 2 + 12.0
             else:
                 lo_s, hi_s = e.s_event + 15.0, e.s_event + 35.0
-            slack_lo = M.m.NewIntVar(-10000, 10000, f"{n}.slack_lo")
-            M.m.Add(slack_lo == int((te - 0.2) * DM) - t)
-            prod = M.product(n, "walk_lo", slack_lo, v, 10 ** 7)
-            M.require(f"{n}: reaches the ego's lane by 0.2 s before the ego's event",
-                      prod >= int(reach * 100))
-            slack_hi = M.m.NewIntVar(-10000, 10000, f"{n}.slack_hi")
-            M.m.Add(slack_hi == int((te - 1.8) * DM) - t)
-            prod2 = M.product(n, "walk_hi", slack_hi, v, 10 ** 7)
-            M.require(f"{n}: reaches the ego's lane no earlier than 1.8 s before the ego's event",
-                      prod2 <= int(reach * 100))
+            walk_window(0.2, 1.8, reach, "reaches the ego's lane by 0.2 s before the ego's event",
+                        "reaches the ego's lane no earlier than 1.8 s before the ego's event")
         M.require(f"{n}: crosses ahead of where the ego ends (s >= {lo_s:.1f} m)", s >= int(lo_s * DM))
         M.require(f"{n}: crosses close enough to matter (s <= {hi_s:.1f} m)", s <= int(hi_s * DM))
         return
