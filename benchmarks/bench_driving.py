@@ -1,5 +1,5 @@
-"""Driving benchmark: per-scenario time split into solve, Scenic compile, simulation (and drawing
-when regen.driving.render exists), and simulated seconds per wall second.
+"""Driving benchmark: per-scenario time split into solve, Scenic compile, simulation and drawing,
+and simulated seconds per wall second, through the main job's stages (regen.pipeline.run_path).
 
 Targets (issue 4): CP-SAT under 0.2 s per scenario; simulation at least 20x real time without
 drawing. Run: python benchmarks/bench_driving.py [--profile]
@@ -12,11 +12,10 @@ import cProfile
 import pstats
 import statistics
 import tempfile
-import time
 from pathlib import Path
 
 from regen.core import Behavior, CausePath, PathEntity
-from regen.driving.backend import DrivingBackend, run_path
+from regen.pipeline import run_path
 
 CHAINS = [
     ("stop_abruptly", "a child runs across the road",
@@ -47,23 +46,18 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--profile", action="store_true", help="cProfile the whole batch")
     args = ap.parse_args()
-    backend = DrivingBackend()
     rows = []
     prof = cProfile.Profile() if args.profile else None
     if prof:
         prof.enable()
     with tempfile.TemporaryDirectory() as tmp:
-        for tid, cause, ents in CHAINS:
-            r = run_path(_path(tid, cause, ents))
-            draw = 0.0
-            if r.trace is not None:
-                t0 = time.perf_counter()
-                backend.render(r.scenario, r.trace, r.verdict, Path(tmp) / r.scenario.id)
-                draw = time.perf_counter() - t0
-            sim_s = r.trace.times[-1] if r.trace else 0.0
+        for k, (tid, cause, ents) in enumerate(CHAINS):
+            r = run_path(_path(tid, cause, ents), Path(tmp) / f"{k:02d}-{tid}")
+            trace = r.trace()
+            sim_s = trace.times[-1] if trace else 0.0
             t = r.timings
             rows.append((tid, r.verdict.status, t.get("solve", 0.0), t.get("compile", 0.0),
-                         t.get("simulate", 0.0), draw, sim_s))
+                         t.get("simulate", 0.0), t.get("render", 0.0), sim_s))
     if prof:
         prof.disable()
     print(f"{'template':22} {'verdict':14} {'solve[s]':>8} {'compile[s]':>10} {'sim[s]':>7} "

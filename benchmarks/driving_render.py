@@ -50,6 +50,7 @@ def _run(map_name: str, map_path: Path, seconds: float, dt: float = 0.05):
 def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         os.environ["REGEN_CACHE_DIR"] = str(Path(tmp) / "cache")
+        from regen.domains import ANIMATION, KEYFRAMES
         from regen.driving.export_xosc import export_openscenario, validate_xosc
         from regen.driving.maps import ensure_map
         from regen.driving.render import render_scenario
@@ -66,11 +67,11 @@ def main() -> None:
                 valid = not validate_xosc(files["xosc"])
                 from PIL import Image
 
-                frames = Image.open(out["gif"]).n_frames
+                frames = Image.open(out[ANIMATION]).n_frames
                 print(f"{map_name:9s} {seconds:4.0f} s sim ({trace.steps} steps): render {t1 - t0:5.2f} s "
                       f"({frames} frames, {1000 * (t1 - t0) / frames:4.1f} ms/frame incl. map), "
-                      f"GIF {out['gif'].stat().st_size / 1e6:4.2f} MB, strip "
-                      f"{out['keyframes'].stat().st_size / 1e3:4.0f} kB; export {t2 - t1:5.3f} s, "
+                      f"GIF {out[ANIMATION].stat().st_size / 1e6:4.2f} MB, strip "
+                      f"{out[KEYFRAMES].stat().st_size / 1e3:4.0f} kB; export {t2 - t1:5.3f} s, "
                       f"schema-valid {valid}")
 
 

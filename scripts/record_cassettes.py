@@ -23,9 +23,9 @@ OUT = Path(__file__).resolve().parents[1] / "tests" / "data" / "cassettes"
 
 EXPANSIONS = {
     "expand_driving": (Behavior(text="the ego-vehicle stops abruptly while driving forward", domain="driving"),
-                       Limits(max_depth=1, max_causes=3)),
+                       Limits(max_depth=1, max_causes=3, max_entities=3)),
     "expand_manipulation": (Behavior(text="the robot opens the door", domain="manipulation", reward="open_door"),
-                            Limits(max_depth=1, max_causes=3)),
+                            Limits(max_depth=1, max_causes=3, max_entities=3)),
 }
 GENERATE = ("generate_driving", Behavior(text="the ego-vehicle stops abruptly while driving forward",
                                          domain="driving"))
@@ -102,8 +102,8 @@ def record_ground(llm_spec: str) -> None:
         sc = ground_with_model(path, llm)
         print(f"ground {key}: {sc.world['grounder']} (model: {sc.world['model_parts']}), "
               f"{time.perf_counter() - t0:.0f} s; fsm {sc.fsm.as_tuples()}")
-        for note in sc.solver.relaxations:
-            print(f"    {note}")
+        for note in sc.fallbacks:
+            print(f"    rules used: {note}")
     n = cache.export_json(OUT / "ground_driving.json")
     print(f"ground_driving: {n} answers; {llm.stats.summary()}")
 

@@ -13,8 +13,8 @@ def test_core_imports_leave_heavy_packages_unimported() -> None:
     code = (
         "import sys, json\n"
         "import regen, regen.core, regen.assets, regen.llm, regen.verify, regen.domains, regen.cli\n"
-        "from regen.assets import load_database\n"
-        "load_database('driving'); load_database('manipulation')\n"
+        "from regen.domains import database\n"
+        "database('driving'); database('manipulation')\n"
         "from regen.verify import list_predicates\n"
         "list_predicates()\n"
         f"print(json.dumps([m for m in {HEAVY!r} if m in sys.modules]))\n"

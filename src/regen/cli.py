@@ -9,6 +9,7 @@ from __future__ import annotations
 import functools
 import json
 import logging
+import re
 from collections.abc import Callable
 from typing import Any, TypeVar
 
@@ -30,6 +31,23 @@ console = Console()
 err_console = Console(stderr=True, soft_wrap=True)
 
 
+def _defaults():
+    from regen.runfolder import RunSettings
+
+    return RunSettings().limits(), RunSettings()
+
+
+_LIMITS, _SETTINGS = _defaults()  # the one place for defaults (regen.expand.Limits) seen by the CLI
+
+
+def shown(value: Any) -> str:
+    """Text from a file, a model or an error, safe to print: unsafe characters dropped, rich
+    markup escaped (a name like 'box [/]' prints as written)."""
+    from regen.core.text import clean
+
+    return escape(" ".join(clean(str(value)).split("\r")))
+
+
 def friendly(fn: F) -> F:
     """Show RegenError as a one-line message and exit with its code."""
 
@@ -38,7 +56,8 @@ def friendly(fn: F) -> F:
         try:
             return fn(*args, **kwargs)
         except RegenError as exc:
-            err_console.print(f"[bold red]error:[/] {escape(str(exc))}")
+            one_line = re.sub(r"\s*\n\s*", " ", str(exc)).strip()
+            err_console.print(f"[bold red]error:[/] {shown(one_line)}")
             raise typer.Exit(exc.exit_code) from None
 
     return wrapper  # type: ignore[return-value]
@@ -56,28 +75,29 @@ def _root(verbose: bool = typer.Option(False, "--verbose", "-v", help="Log detai
 
 @app.command("assets")
 @friendly
-def assets_cmd(domain: str = typer.Argument(..., help="driving, manipulation, or a database JSON file"),
+def assets_cmd(domain: str = typer.Argument(..., help="A domain (driving, manipulation) or a database JSON file"),
                as_json: bool = typer.Option(False, "--json", help="Print the database as JSON.")) -> None:
     """Show what a simulator's asset database can simulate."""
-    from regen.assets import load_database
+    from regen import domains
 
-    db = load_database(domain)
+    db = domains.database(domain)
     if as_json:
         console.print_json(db.model_dump_json())
         return
-    table = Table(title=f"{db.name} assets ({db.simulator})")
+    table = Table(title=shown(f"{db.name} assets ({db.simulator})"))
     for col in ("category", "asset", "properties", "behaviors"):
         table.add_column(col)
     for cat, members in db.categories.items():
         for a in members:
             spec = db.assets[a]
-            table.add_row(cat, a, ", ".join(spec.properties), ", ".join(spec.behaviors))
+            table.add_row(shown(cat), shown(a), shown(", ".join(spec.properties)),
+                          shown(", ".join(spec.behaviors)))
     console.print(table)
 
 
 @app.command("predicates")
 @friendly
-def predicates_cmd(domain: str = typer.Argument(None, help="driving or manipulation (default: all)")) -> None:
+def predicates_cmd(domain: str = typer.Argument(None, help="A domain, e.g. driving (default: all)")) -> None:
     """List the predicate library that abstract states are built from."""
     from regen.verify import list_predicates
 
@@ -135,17 +155,21 @@ def model_verify(alias: str = typer.Argument("qwen2.5-coder-1.5b")) -> None:
     console.print(f"sha256 ok: {path}")
 
 
-def llm_options(llm: str, cache: str | None, replay: bool, on_call=None):
+def llm_options(llm: str, cache: str | None, replay: bool, on_call=None, timeout: float | None = None):
     """Build the LLM client the commands share (cache in the user cache dir by default)."""
     from regen.llm import LLM
     from regen.paths import cache_dir
 
     path = cache or str(cache_dir() / "llm-cache.sqlite")
-    return LLM(llm, cache=path, replay=replay, on_call=on_call)
+    return LLM(llm, cache=path, replay=replay, on_call=on_call, timeout=timeout)
 
 
 LLM_HELP = ("Model: local (offline default), local:<alias or .gguf>, openai:<model> "
-            "(OPENAI_API_KEY; any compatible server via REGEN_OPENAI_BASE_URL), anthropic:<model>")
+            "(OPENAI_API_KEY; any compatible server via REGEN_OPENAI_BASE_URL, which gets "
+            "REGEN_OPENAI_API_KEY or no key, never OPENAI_API_KEY), anthropic:<model> "
+            "(ANTHROPIC_API_KEY)")
+LLM_TIMEOUT_HELP = ("Seconds to wait for one request to a remote model before retrying it (4 tries "
+                    "in all); default: REGEN_LLM_TIMEOUT, else 120")
 
 
 @app.command("expand")
@@ -155,15 +179,16 @@ def expand_cmd(
     domain: str = typer.Option(..., "--domain", "-d", help="driving or manipulation"),
     out: str = typer.Option(..., "--out", "-o", help="Folder for graph.json, graph.png, graph.html"),
     llm: str = typer.Option("local", "--llm", help=LLM_HELP),
-    depth: int = typer.Option(1, "--depth", min=1, max=6, help="Event layers behind the behavior"),
-    max_nodes: int = typer.Option(12, "--max-nodes", min=1, help="Most cause events to accept"),
+    depth: int = typer.Option(_LIMITS.max_depth, "--depth", min=1, max=6, help="Event layers behind the behavior"),
+    max_nodes: int = typer.Option(_LIMITS.max_nodes, "--max-nodes", min=1, help="Most cause events to accept"),
     max_calls: int = typer.Option(None, "--max-calls", min=1, help="Stop after this many model calls"),
     max_tokens: int = typer.Option(None, "--max-tokens", min=1, help="Stop after this many tokens"),
-    causes: int = typer.Option(4, "--causes", min=1, max=12, help="Causes proposed per event"),
+    causes: int = typer.Option(_LIMITS.max_causes, "--causes", min=1, max=12, help="Causes proposed per event"),
     prior: str = typer.Option(None, "--prior", help="Steer proposals, e.g. 'police car'"),
     candidate: list[str] = typer.Option(None, "--candidate", help="A cause to judge too (repeatable)"),
     cache: str = typer.Option(None, "--cache", help="LLM cache file (default: user cache dir)"),
     replay: bool = typer.Option(False, "--replay", help="Forbid model calls: cached answers only"),
+    llm_timeout: float = typer.Option(None, "--llm-timeout", min=0.1, help=LLM_TIMEOUT_HELP),
 ) -> None:
     """Infer a causal graph of events, entities and properties behind a behavior (paper Alg. 1)."""
     from pathlib import Path
@@ -171,7 +196,7 @@ def expand_cmd(
     from rich.live import Live
     from rich.spinner import Spinner
 
-    from regen.core.behavior import make_behavior
+    from regen.domains import make_behavior
     from regen.expand import Limits
     from regen.expand.run import run_expand
 
@@ -184,7 +209,7 @@ def expand_cmd(
         if client is not None:
             spinner.update(text=f"{status['stage']}: {client.stats.summary()}")
 
-    client = llm_options(llm, cache, replay, on_call)
+    client = llm_options(llm, cache, replay, on_call, timeout=llm_timeout)
     limits = Limits(max_depth=depth, max_nodes=max_nodes, max_calls=max_calls, max_tokens=max_tokens,
                     max_causes=causes)
 
@@ -225,10 +250,10 @@ def generate_cmd(
     out: str = typer.Option(..., "--out", "-o", help="Run folder (rerun the same command to resume)"),
     llm: str = typer.Option("local", "--llm", help=LLM_HELP),
     replay: bool = typer.Option(False, "--replay", help="Forbid model calls: cached answers only"),
-    depth: int = typer.Option(1, "--depth", min=1, max=6, help="Event layers behind the behavior"),
-    max_nodes: int = typer.Option(8, "--max-nodes", min=1, help="Most cause events to accept"),
-    scenarios: int = typer.Option(2, "--scenarios", "-n", min=1, help="Most scenarios to simulate"),
-    causes: int = typer.Option(3, "--causes", min=1, max=12, help="Causes proposed per event"),
+    depth: int = typer.Option(_LIMITS.max_depth, "--depth", min=1, max=6, help="Event layers behind the behavior"),
+    max_nodes: int = typer.Option(_LIMITS.max_nodes, "--max-nodes", min=1, help="Most cause events to accept"),
+    scenarios: int = typer.Option(_SETTINGS.max_scenarios, "--scenarios", "-n", min=1, help="Most scenarios to simulate"),
+    causes: int = typer.Option(_LIMITS.max_causes, "--causes", min=1, max=12, help="Causes proposed per event"),
     prior: str = typer.Option(None, "--prior", help="Steer proposals, e.g. 'police car'"),
     candidate: list[str] = typer.Option(None, "--candidate", help="A cause to judge too (repeatable)"),
     template: str = typer.Option(None, "--ego", help="Driving: ego behavior template (default: from the text)"),
@@ -237,14 +262,18 @@ def generate_cmd(
     workers: int = typer.Option(1, "--workers", min=1, max=64, help="Processes for simulation"),
     no_pictures: bool = typer.Option(False, "--no-pictures", help="Skip GIFs and key frames"),
     log: str = typer.Option("rich", "--log", help="Progress: rich (default), quiet, or jsonl (stdout)"),
+    llm_timeout: float = typer.Option(None, "--llm-timeout", min=0.1, help=LLM_TIMEOUT_HELP),
+    fresh: bool = typer.Option(False, "--fresh", help="Discard an earlier run in --out instead of "
+                               "resuming it (its model cache is kept)"),
 ) -> None:
     """The main job: behavior -> causal graph -> scenarios -> simulation -> verdicts -> report."""
     from pathlib import Path
 
-    from regen.core.behavior import make_behavior
+    from regen.domains import make_behavior
     from regen.errors import ConfigError
-    from regen.pipeline import RunSettings, generate
+    from regen.pipeline import generate
     from regen.progress import make_progress
+    from regen.runfolder import RunSettings
 
     if log not in ("rich", "quiet", "jsonl"):
         raise ConfigError(f"--log must be rich, quiet or jsonl, not {log!r}")
@@ -256,20 +285,24 @@ def generate_cmd(
     b = make_behavior(behavior, domain, **extra)
     settings = RunSettings(llm=llm, depth=depth, max_nodes=max_nodes, max_scenarios=scenarios,
                            causes=causes, prior=prior, candidates=candidate or [], seed=seed,
-                           workers=workers, pictures=not no_pictures)
+                           workers=workers, pictures=not no_pictures, llm_timeout=llm_timeout)
     with make_progress(log, console=err_console, out=console) as progress:
         try:
-            result = generate(b, Path(out), settings=settings, replay=replay, on_event=progress.on_event)
+            result = generate(b, Path(out), settings=settings, replay=replay, fresh=fresh,
+                              on_event=progress.on_event)
         except KeyboardInterrupt:
             err_console.print(f"[yellow]interrupted: finished scenarios are saved in {escape(out)}; "
                               "run the same command again to resume[/]")
             raise typer.Exit(130) from None
     if log == "jsonl":
         return
-    console.print(f"[bold]{result.feasible}/{len(result.outcomes)} scenarios feasible[/] "
-                  f"({escape(result.manifest.status)}); model: {result.manifest.usage.get('total', {}).get('calls', 0)} calls")
+    relaxed = sum(o.verdict.status == "verified_after_relaxation" for o in result.outcomes)
+    console.print(f"[bold]{result.feasible}/{len(result.outcomes)} scenarios feasible[/]"
+                  + (f" ({relaxed} after relaxing their FSM)" if relaxed else "")
+                  + f" ({escape(result.manifest.status)}); model: "
+                  f"{result.manifest.usage_last.get('total', {}).get('calls', 0)} calls")
     for o in result.outcomes:
-        mark = "[green]feasible[/]" if o.verdict.feasible else f"[red]{o.verdict.status}[/]"
+        mark = f"[green]{o.verdict.status}[/]" if o.verdict.feasible else f"[red]{o.verdict.status}[/]"
         console.print(f"  {escape(o.folder)}: {mark}: {escape(o.verdict.reason)}")
     report = Path(out) / "report.html"
     if report.exists():
@@ -280,21 +313,31 @@ def generate_cmd(
 @friendly
 def runs_list(root: str = typer.Argument(".", help="A run folder or a folder of runs")) -> None:
     """Run folders with their behavior, status and success."""
-    import json as _json
     from pathlib import Path
 
-    from regen.pipeline import list_runs
+    from regen.errors import RunError
+    from regen.runfolder import RunFolder, list_runs, read_json
 
-    table = Table(title=f"runs under {root}")
+    base = Path(root)
+    if not base.is_dir():
+        raise RunError(f"{root} is not a folder: give a run folder or a folder of runs")
+    table = Table(title=shown(f"runs under {root}"))
     for col in ("folder", "behavior", "domain", "status", "feasible", "started"):
-        table.add_column(col)
-    for path, m in list_runs(Path(root)):
-        feasible = "?"
-        summary = path / "summary.json"
-        if summary.exists():
-            s = _json.loads(summary.read_text())
-            feasible = f"{s.get('feasible', 0)}/{s.get('scenarios', 0)}"
-        table.add_row(escape(str(path)), escape(m.behavior.text), m.behavior.domain, m.status, feasible, m.started)
+        table.add_column(col, overflow="fold")  # wrapped, never cut: a cut path names no run
+    for path, m, problem in list_runs(base):
+        name = shown(path if path == base else path.relative_to(base))  # the title names the root
+        if m is None:
+            table.add_row(name, f"[yellow]run.json {shown(problem)}[/]", "", "?", "?", "")
+            continue
+        got = read_json(path / RunFolder.SUMMARY)
+        if got.ok and isinstance(got.value, dict):
+            feasible = shown(f"{got.value.get('feasible', '?')}/{got.value.get('scenarios', '?')}")
+        elif got.problem == "missing":  # not finished yet
+            feasible = "?"
+        else:
+            feasible = "[yellow]summary.json unreadable[/]"
+        table.add_row(name, shown(m.behavior.text), shown(m.behavior.domain),
+                      shown(m.status), feasible, shown(m.started))
     console.print(table)
 
 
@@ -306,25 +349,29 @@ def runs_show(run: str = typer.Argument(..., help="A run folder")) -> None:
 
     from regen.core.verdict import Verdict
     from regen.errors import RunError
-    from regen.pipeline import list_runs
+    from regen.runfolder import RunFolder, read_model
 
-    found = list_runs(Path(run))
-    if not found or found[0][0] != Path(run):
-        raise RunError(f"{run} is not a run folder (no readable run.json)")
-    _, m = found[0]
-    console.print(f"[bold]{escape(m.behavior.text)}[/] ({m.behavior.domain}), status {m.status}, "
-                  f"started {m.started}")
+    folder = RunFolder(Path(run))
+    if not folder.is_run():
+        raise RunError(f"{run} is not a run folder (no run.json): give the --out folder of "
+                       f"'regen generate'; 'regen runs list {run}' lists the runs under a folder")
+    m = folder.read_manifest()
+    console.print(f"[bold]{shown(m.behavior.text)}[/] ({shown(m.behavior.domain)}), status "
+                  f"{shown(m.status)}, started {shown(m.started)}")
     table = Table()
     for col in ("scenario", "verdict", "reason"):
         table.add_column(col)
-    for name in m.scenarios:
-        vpath = Path(run) / "scenarios" / name / "verdict.json"
-        if vpath.exists():
-            v = Verdict.model_validate_json(vpath.read_text())
-            table.add_row(escape(name), "[green]feasible[/]" if v.feasible else f"[red]{v.status}[/]",
-                          escape(v.reason))
+    for name in folder.scenario_names():
+        got = read_model(folder.scenario(name) / "verdict.json", Verdict)
+        if got.ok:
+            v = got.value
+            status = shown(v.status)
+            table.add_row(shown(name), f"[green]{status}[/]" if v.feasible else f"[red]{status}[/]",
+                          shown(v.reason))
+        elif got.problem == "missing":
+            table.add_row(shown(name), "[yellow]not finished[/]", "")
         else:
-            table.add_row(escape(name), "[yellow]not finished[/]", "")
+            table.add_row(shown(name), "[yellow]verdict unreadable[/]", shown(got.problem))
     console.print(table)
 
 

@@ -1,15 +1,22 @@
 """The main job: behavior -> graph -> paths -> ground -> simulate -> verify -> export.
 
-Everything goes into a run folder (docs/run-folder.md). Each scenario is written atomically when
-it finishes, its verdict last; rerunning the same command resumes: finished scenarios are skipped
-and model answers come from the run's cache, so nothing already computed is done again.
+This module holds the stage functions, and they are the only route from a behavior to a
+verdict: ``regen generate``, :func:`generate`, :func:`run_path` (one cause chain, for tests,
+benchmarks and library users) and the worker processes all call them. Everything goes into a
+run folder (:mod:`regen.runfolder`); rerunning the same command resumes: finished scenarios are
+skipped and model answers come from the run's cache, so nothing already computed is done again.
+
+Error policy: a model error that retrying later can fix (replay miss, provider unreachable,
+missing key, bad model file) stops the run with its message; the run stays resumable and no
+verdict is written for the scenario it hit. A cause chain that cannot be grounded, an
+unsatisfiable placement, an invalid FSM or a simulator failure is that scenario's verdict.
 """
 
 from __future__ import annotations
 
-import datetime as dt
 import json
 import logging
+import os
 import re
 import time
 import traceback
@@ -19,73 +26,61 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from pydantic import Field
-
-from regen.core.base import Model
+from regen import domains
 from regen.core.behavior import Behavior
 from regen.core.graph import CausePath, ScenarioGraph
 from regen.core.io import write_json
 from regen.core.scenario import Scenario
+from regen.core.trace import Trace
 from regen.core.verdict import Verdict
-from regen.errors import RegenError, RunError
-from regen.expand.expansion import Limits, expand
-from regen.expand.run import load_graph, save_graph
+from regen.domains import DomainBackend
+from regen.errors import GroundingError, LLMError, MalformedAnswerError, RegenError
+from regen.expand.expansion import expand
+from regen.expand.run import save_graph
 from regen.llm.client import LLM
+from regen.runfolder import (
+    RunFolder,
+    RunManifest,
+    RunSettings,
+    ScenarioFolder,
+    merge_usage,
+    now,
+    read_model,
+)
+from regen.verify.monitor import validate_fsm
 
 log = logging.getLogger(__name__)
 
-
-class RunSettings(Model):
-    llm: str = "local"
-    depth: int = 1
-    max_nodes: int = 8
-    max_scenarios: int = 2
-    causes: int = 3
-    max_entities: int = 2  # entities kept per event
-    prior: str | None = None
-    candidates: list[str] = Field(default_factory=list)
-    seed: int = 0
-    workers: int = 1  # processes for simulation
-    pictures: bool = True
-
-
-class RunManifest(Model):
-    behavior: Behavior
-    settings: RunSettings
-    status: str = "running"
-    started: str = ""
-    finished: str | None = None
-    timings: dict[str, float] = Field(default_factory=dict)
-    usage: dict[str, Any] = Field(default_factory=dict)
-    scenarios: list[str] = Field(default_factory=list)
-    message: str = ""
+Event = dict[str, Any]
+Emit = Callable[..., None]
 
 
 @dataclass
 class ScenarioOutcome:
-    folder: str
+    folder: str  # the scenario folder's name
     verdict: Verdict
     skipped: bool = False  # finished in an earlier run
     timings: dict[str, float] = field(default_factory=dict)
+    path: Path | None = None  # the scenario folder
+
+    def scenario(self) -> Scenario | None:
+        """The scenario as verified (its FSM relaxed where the verdict says so)."""
+        return ScenarioFolder(self.path).scenario() if self.path else None
+
+    def trace(self) -> Trace | None:
+        return read_model(self.path / ScenarioFolder.TRACE, Trace).value if self.path else None
 
 
 @dataclass
 class RunResult:
     run_dir: Path
     manifest: RunManifest
-    graph: ScenarioGraph
+    graph: ScenarioGraph | None
     outcomes: list[ScenarioOutcome]
 
     @property
     def feasible(self) -> int:
         return sum(o.verdict.feasible for o in self.outcomes)
-
-
-Event = dict[str, Any]
-
-
-def _now() -> str:
-    return dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")
 
 
 def slug(text: str, n: int = 40) -> str:
@@ -108,62 +103,159 @@ def select_paths(paths: list[CausePath], k: int) -> list[CausePath]:
 
 
 def folder_names(paths: list[CausePath]) -> list[str]:
-    names: list[str] = []
-    for i, p in enumerate(paths, start=1):
-        names.append(f"{i:02d}-{slug(p.events[0])}")
-    return names
+    return [f"{i:02d}-{slug(p.events[0])}" for i, p in enumerate(paths, start=1)]
 
 
-def _verdict_for_error(exc: BaseException, status: str) -> Verdict:
-    return Verdict(feasible=False, status=status, reason=f"{type(exc).__name__}: {exc}")  # type: ignore[arg-type]
+def _failed(status: str, reason: str, scenario: Scenario | None = None) -> Verdict:
+    extra: dict[str, Any] = {}
+    if scenario is not None:
+        extra = {"conflicts": list(scenario.solver.conflicts),
+                 "placement_relaxations": list(scenario.solver.relaxations),
+                 "fallbacks": list(scenario.fallbacks)}
+    return Verdict(feasible=False, status=status, reason=reason, **extra)  # type: ignore[arg-type]
 
 
-def _read_verdict(folder: Path) -> Verdict | None:
+def _fatal(exc: BaseException) -> bool:
+    """Model errors that a later rerun can fix: they stop the run instead of becoming verdicts."""
+    return isinstance(exc, LLMError) and not isinstance(exc, MalformedAnswerError)
+
+
+# --- stage: ground -------------------------------------------------------------------------------
+
+
+def ground_stage(backend: DomainBackend, path: CausePath, llm: LLM | None, folder: ScenarioFolder, *,
+                 seed: int = 0) -> Verdict | None:
+    """Ground one cause path into ``folder``. Returns the verdict when the scenario ends here
+    (not groundable, unsatisfiable, invalid FSM), else None: ready to simulate."""
+    folder.start(path)
+    t0 = time.perf_counter()
     try:
-        return Verdict.model_validate_json((folder / "verdict.json").read_text())
-    except (OSError, ValueError):
-        return None
-
-
-def simulate_and_verify(domain: str, scenario_dir: str, pictures: bool = True) -> dict[str, Any]:
-    """Simulate, verify, draw and export one grounded scenario folder. Runs in a worker process
-    too, so it takes and returns plain data; the verdict is written last."""
-    from regen import domains
-    from regen.verify import check_fsm
-
-    folder = Path(scenario_dir)
-    timings: dict[str, float] = {}
-    scenario = Scenario.model_validate(json.loads((folder / "scenario.json").read_text())["scenario"])
-    backend = domains.make(domain)
-    try:
-        t0 = time.perf_counter()
-        sim = backend.simulate(scenario, folder)
-        timings["simulate"] = time.perf_counter() - t0
-        timings.update({k: v for k, v in sim.timings.items() if k != "simulate"})
-        write_json(folder / "trace.json", sim.trace)
-        verdict = check_fsm(scenario, sim.trace)
-        if pictures:
-            t0 = time.perf_counter()
-            try:
-                backend.render(scenario, sim.trace, verdict, folder)
-            except Exception as exc:  # a picture is not worth the verdict
-                log.warning("drawing %s failed: %s", folder.name, exc)
-                (folder / "error.txt").write_text("drawing failed:\n" + traceback.format_exc())
-            timings["render"] = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        backend.export(scenario, folder, trace=sim.trace)
-        timings["export"] = time.perf_counter() - t0
+        scenario = backend.ground(path, llm, seed=seed)
+    except KeyboardInterrupt:
+        raise
     except Exception as exc:
-        (folder / "error.txt").write_text(traceback.format_exc())
-        status = "simulation_failed"
-        verdict = _verdict_for_error(exc, status)
-    write_json(folder / "timings.json", timings)
-    write_json(folder / "verdict.json", verdict)
+        if _fatal(exc):
+            raise
+        folder.write_error(traceback.format_exc())
+        reason = str(exc) if isinstance(exc, (GroundingError, RegenError)) else f"{type(exc).__name__}: {exc}"
+        verdict = _failed("grounding_failed", reason)
+        folder.write_verdict(verdict)
+        return verdict
+    folder.write_scenario(scenario, backend.config(scenario))
+    folder.add_timings({"ground": time.perf_counter() - t0, "solve": scenario.solver.wall_time})
+    status = scenario.solver.status
+    if status in ("infeasible", "model_invalid"):
+        verdict = _failed("unsatisfiable", "the constraints cannot all hold: "
+                          + "; ".join(scenario.solver.conflicts), scenario)
+    elif status == "unknown":
+        verdict = _failed("unsatisfiable", "the solver found no placement within its time limit "
+                          "(status unknown)", scenario)
+    elif problems := validate_fsm(scenario.fsm, {e.name for e in scenario.entities}, scenario.domain):
+        verdict = _failed("invalid_scenario", "; ".join(problems), scenario)
+    else:
+        return None
+    folder.write_verdict(verdict)
+    return verdict
+
+
+# --- stage: simulate, verify, draw, export -------------------------------------------------------
+
+
+def simulate_stage(domain: str, scenario_dir: str, pictures: bool = True) -> dict[str, Any]:
+    """Simulate, verify, draw and export one grounded scenario folder. Runs in worker processes
+    too, so it takes and returns plain data; the verdict is written last."""
+    folder = ScenarioFolder(Path(scenario_dir))
+    folder.reset()
+    backend = domains.make(domain)
+    scenario = folder.scenario()
+    timings: dict[str, float] = {}
+    if scenario is None:
+        verdict = _failed("invalid_scenario", f"{folder / folder.SCENARIO} is missing or unreadable")
+        folder.write_verdict(verdict)
+        return {"verdict": verdict.model_dump(mode="json"), "timings": timings}
+    try:
+        t0 = time.perf_counter()
+        sim = backend.simulate(scenario, folder.path)
+        timings.update(sim.timings)  # the domain's own split (compile, simulate, record, ...)
+        timings["simulate_total"] = time.perf_counter() - t0
+        timings.setdefault("simulate", timings["simulate_total"])
+        folder.write_trace(sim.trace)
+        t0 = time.perf_counter()
+        verdict, judged = backend.verify(scenario, sim.trace)
+        timings["verify"] = time.perf_counter() - t0
+    except KeyboardInterrupt:
+        raise
+    except Exception as exc:
+        folder.write_error(traceback.format_exc())
+        verdict = _failed("simulation_failed", str(exc) if isinstance(exc, RegenError)
+                          else f"{type(exc).__name__}: {exc}", scenario)
+        folder.add_timings(timings)
+        folder.write_verdict(verdict)
+        return {"verdict": verdict.model_dump(mode="json"), "timings": timings}
+    if judged.fsm != scenario.fsm:  # relaxed: the folder shows the FSM the verdict is about
+        folder.write_scenario(judged, backend.config(judged))
+    files = dict(sim.files)
+    steps: list[tuple[str, Callable[[], dict[str, Path]]]] = [
+        ("export", lambda: backend.export(judged, folder.path, trace=sim.trace))]
+    if pictures:
+        steps.insert(0, ("render", lambda: backend.render(judged, sim.trace, verdict, folder.path)))
+    problems: list[str] = []
+    for name, step in steps:
+        t0 = time.perf_counter()
+        try:  # a picture or an export is not worth the verdict; the failure is kept in error.txt
+            files.update(step())
+        except KeyboardInterrupt:
+            raise
+        except Exception:
+            log.warning("%s of %s failed", name, folder.name, exc_info=True)
+            problems.append(f"{name} failed:\n{traceback.format_exc()}")
+        timings[name] = time.perf_counter() - t0
+    if problems:
+        folder.write_error("\n".join(problems))
+    folder.add_files(files)
+    folder.add_timings(timings)
+    folder.write_verdict(verdict)
     return {"verdict": verdict.model_dump(mode="json"), "timings": timings}
 
 
+def _worker_init(parent: int) -> None:
+    """In a simulation worker: die with the main process (a killed run leaves no worker behind,
+    writing into its folder), and leave Ctrl-C to the main process, which stops the pool."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        PR_SET_PDEATHSIG = 1  # Linux prctl option
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+    except (OSError, AttributeError):  # not Linux: workers end when the pool's pipe closes
+        pass
+    import os
+
+    if os.getppid() != parent:  # the main process died before prctl took effect
+        os._exit(1)
+
+
+def run_path(path: CausePath, folder: str | Path, *, llm: LLM | None = None, seed: int = 0,
+             pictures: bool = True) -> ScenarioOutcome:
+    """Ground, simulate and verify one cause path into ``folder`` with the main job's stages
+    (``llm=None``: the domain's rule-based grounding)."""
+    sf = ScenarioFolder(Path(folder))
+    backend = domains.make(path.behavior.domain)
+    verdict = ground_stage(backend, path, llm, sf, seed=seed)
+    if verdict is None:
+        verdict = Verdict.model_validate(simulate_stage(path.behavior.domain, str(sf.path), pictures)["verdict"])
+    return ScenarioOutcome(sf.name, verdict, timings=sf.timings(), path=sf.path)
+
+
+# --- the main job --------------------------------------------------------------------------------
+
+
 def generate(behavior: Behavior, out: Path, *, settings: RunSettings | None = None, llm: LLM | None = None,
-             replay: bool = False, on_event: Callable[[Event], None] | None = None) -> RunResult:
+             replay: bool = False, fresh: bool = False,
+             on_event: Callable[[Event], None] | None = None) -> RunResult:
     """Run the whole pipeline into ``out`` (resuming what an earlier run left).
 
     Args:
@@ -172,27 +264,25 @@ def generate(behavior: Behavior, out: Path, *, settings: RunSettings | None = No
         settings: limits, model string, seed, workers.
         llm: a model client (default: ``settings.llm`` with the run's cache file).
         replay: forbid model calls; every answer must be in the run's cache.
+        fresh: discard an earlier run in ``out`` (its model cache is kept) instead of resuming.
         on_event: called with progress events (also appended to events.jsonl).
     """
-    from regen import domains
-
     settings = settings or RunSettings()
-    out.mkdir(parents=True, exist_ok=True)
-    manifest_path = out / "run.json"
+    backend = domains.make(behavior.domain)
+    backend.check_behavior(behavior)
+    run = RunFolder(out)
+    manifest = run.open(behavior, settings, backend.settings_key(behavior), fresh=fresh)
+    try:
+        return _run(run, manifest, backend, settings, llm, replay, on_event)
+    finally:
+        run.unlock()
+
+
+def _run(run: RunFolder, manifest: RunManifest, backend: DomainBackend, settings: RunSettings,
+         llm: LLM | None, replay: bool, on_event: Callable[[Event], None] | None) -> RunResult:
+    run.write_manifest(manifest)
     started = time.perf_counter()
-    if manifest_path.exists():
-        try:
-            old = RunManifest.model_validate_json(manifest_path.read_text())
-        except ValueError as exc:
-            raise RunError(f"{manifest_path} is unreadable ({exc}); use a new --out folder") from None
-        if old.behavior != behavior:
-            raise RunError(f"{out} holds a run of another behavior ('{old.behavior.text}', "
-                           f"{old.behavior.domain}); use another --out folder")
-        manifest = old.model_copy(update={"status": "running", "settings": settings, "finished": None})
-    else:
-        manifest = RunManifest(behavior=behavior, settings=settings, started=_now())
-    write_json(manifest_path, manifest)
-    events = open(out / "events.jsonl", "a", encoding="utf-8")
+    events = open(run / run.EVENTS, "a", encoding="utf-8")
 
     def emit(kind: str, **data: Any) -> None:
         ev = {"t": round(time.perf_counter() - started, 3), "event": kind, **data}
@@ -202,93 +292,78 @@ def generate(behavior: Behavior, out: Path, *, settings: RunSettings | None = No
             on_event(ev)
 
     if llm is None:
-        llm = LLM(settings.llm, cache=out / "llm-cache.sqlite", replay=replay,
+        llm = LLM(settings.llm, cache=run.cache_path, replay=replay, timeout=settings.llm_timeout,
                   on_call=lambda c: emit("llm_call", purpose=c.purpose, cached=c.cached,
                                          tokens=c.input_tokens + c.output_tokens))
-    backend = domains.make(behavior.domain)
+    behavior = manifest.behavior
+    earlier_usage = dict(manifest.usage)  # of the invocations before this one
     outcomes: list[ScenarioOutcome] = []
     graph: ScenarioGraph | None = None
+
+    def timed(stage: str, t0: float) -> None:
+        manifest.timings[stage] = manifest.timings.get(stage, 0.0) + time.perf_counter() - t0
+
     try:
-        # --- expand ---------------------------------------------------------------------------
         emit("stage", stage="expand")
         t0 = time.perf_counter()
-        limits = Limits(max_depth=settings.depth, max_nodes=settings.max_nodes, max_causes=settings.causes,
-                        max_entities=settings.max_entities)
-        graph = expand(behavior, llm, database=backend.database(), limits=limits, prior=settings.prior,
-                       candidates=settings.candidates,
-                       on_update=lambda g, what: (write_json(out / "graph.json", g),
+        graph = expand(behavior, llm, database=backend.database(), limits=settings.limits(),
+                       prior=settings.prior, candidates=settings.candidates,
+                       on_update=lambda g, what: (write_json(run / run.GRAPH, g),
                                                   emit("graph", step=what, nodes=len(g.nodes))))
         if graph.stop_reason and "interrupted" in graph.stop_reason:
             raise KeyboardInterrupt
-        save_graph(graph, out, pictures=settings.pictures)
-        manifest.timings["expand"] = time.perf_counter() - t0
+        save_graph(graph, run.path, pictures=settings.pictures)
+        timed("expand", t0)
         paths = select_paths(graph.paths(), settings.max_scenarios)
-        names = folder_names(paths)
-        manifest.scenarios = names
-        write_json(manifest_path, manifest)
-        emit("paths", total=len(paths), names=names)
+        manifest.scenarios = folder_names(paths)
+        run.write_manifest(manifest)
+        emit("paths", total=len(paths), names=manifest.scenarios)
 
-        # --- ground (model calls, in this process) ----------------------------------------------
         emit("stage", stage="ground")
         t0 = time.perf_counter()
         pending: list[str] = []
-        for i, (path, name) in enumerate(zip(paths, names, strict=True)):
-            folder = out / "scenarios" / name
-            done = _read_verdict(folder)
+        for i, (path, name) in enumerate(zip(paths, manifest.scenarios, strict=True)):
+            folder = run.scenario(name)
+            if not folder.holds(path):  # made for another cause path, or never started
+                folder.reset(grounding=True)
+            done = folder.verdict()
             if done is not None:
-                outcomes.append(ScenarioOutcome(name, done, skipped=True))
+                outcomes.append(ScenarioOutcome(name, done, skipped=True, path=folder.path))
                 emit("scenario_done", name=name, feasible=done.feasible, status=done.status, skipped=True)
                 continue
-            folder.mkdir(parents=True, exist_ok=True)
-            write_json(folder / "path.json", path)
-            if (folder / "scenario.json").exists():
+            if folder.scenario() is not None:  # grounded in an earlier invocation
                 pending.append(name)
                 continue
             emit("grounding", name=name)
-            g0 = time.perf_counter()
-            try:
-                scenario = backend.ground(path, llm, seed=settings.seed + i)
-            except KeyboardInterrupt:
-                raise
-            except Exception as exc:
-                (folder / "error.txt").write_text(traceback.format_exc())
-                verdict = _verdict_for_error(exc, "grounding_failed")
-                write_json(folder / "verdict.json", verdict)
-                outcomes.append(ScenarioOutcome(name, verdict))
-                emit("scenario_done", name=name, feasible=False, status=verdict.status)
-                continue
-            config = backend.config(scenario)
-            write_json(folder / "scenario.json", {"scenario": scenario.model_dump(mode="json"),
-                                                  "config": config})
-            write_json(folder / "timings.json", {"ground": time.perf_counter() - g0,
-                                                 "solve": scenario.solver.wall_time})
-            if scenario.solver.status in ("infeasible", "model_invalid"):
-                verdict = Verdict(feasible=False, status="unsatisfiable",
-                                  reason="the constraints cannot all hold: " + "; ".join(scenario.solver.conflicts),
-                                  conflicts=scenario.solver.conflicts, relaxations=scenario.solver.relaxations)
-                write_json(folder / "verdict.json", verdict)
-                outcomes.append(ScenarioOutcome(name, verdict))
-                emit("scenario_done", name=name, feasible=False, status=verdict.status)
-                continue
-            pending.append(name)
-        manifest.timings["ground"] = manifest.timings.get("ground", 0.0) + time.perf_counter() - t0
+            verdict = ground_stage(backend, path, llm, folder, seed=settings.seed + i)
+            if verdict is None:
+                pending.append(name)
+            else:
+                outcomes.append(ScenarioOutcome(name, verdict, path=folder.path))
+                emit("scenario_done", name=name, feasible=False, status=verdict.status, reason=verdict.reason)
+        timed("ground", t0)
 
-        # --- simulate, verify, draw (CPU; optionally in worker processes) -------------------------
         emit("stage", stage="simulate", total=len(pending))
         t0 = time.perf_counter()
+        dirs = {name: str(run.scenario(name).path) for name in pending}
         if settings.workers > 1 and len(pending) > 1:
-            with ProcessPoolExecutor(max_workers=settings.workers) as pool:
-                futs = {name: pool.submit(simulate_and_verify, behavior.domain, str(out / "scenarios" / name),
-                                          settings.pictures) for name in pending}
+            pool = ProcessPoolExecutor(max_workers=settings.workers, initializer=_worker_init,
+                                       initargs=(os.getpid(),))
+            try:
+                futs = {name: pool.submit(simulate_stage, behavior.domain, dirs[name], settings.pictures)
+                        for name in pending}
                 for name, fut in futs.items():
-                    res = fut.result()
-                    _collect(outcomes, name, res, emit)
+                    _collect(outcomes, name, dirs[name], fut.result(), emit)
+            except BaseException:
+                pool.shutdown(wait=True, cancel_futures=True)  # running scenarios finish and are kept
+                raise
+            pool.shutdown()
         else:
             for name in pending:
                 emit("simulating", name=name)
-                res = simulate_and_verify(behavior.domain, str(out / "scenarios" / name), settings.pictures)
-                _collect(outcomes, name, res, emit)
-        manifest.timings["simulate"] = manifest.timings.get("simulate", 0.0) + time.perf_counter() - t0
+                _collect(outcomes, name, dirs[name], simulate_stage(behavior.domain, dirs[name], settings.pictures),
+                         emit)
+        timed("simulate", t0)
         manifest.status = "done"
     except KeyboardInterrupt:
         manifest.status = "interrupted"
@@ -296,60 +371,57 @@ def generate(behavior: Behavior, out: Path, *, settings: RunSettings | None = No
         raise
     except RegenError as exc:
         manifest.status = "failed"
-        manifest.message = str(exc)
+        manifest.message = f"{exc}; fix this and run the same command again to resume"
         raise
     finally:
-        manifest.usage = llm.stats.as_dict()
-        manifest.finished = _now()
+        manifest.usage_last = llm.stats.as_dict()
+        manifest.usage = merge_usage(earlier_usage, manifest.usage_last)
+        manifest.finished = now()
         order = {n: i for i, n in enumerate(manifest.scenarios)}
         outcomes.sort(key=lambda o: order.get(o.folder, 1 << 30))
-        write_json(manifest_path, manifest)
         if graph is not None:
-            _finish(out, manifest, outcomes, emit)
+            _finish(run, manifest, outcomes, emit)
+        else:
+            run.write_manifest(manifest)
         events.close()
-    return RunResult(out, manifest, graph, outcomes)
+    return RunResult(run.path, manifest, graph, outcomes)
 
 
-def _collect(outcomes: list[ScenarioOutcome], name: str, res: dict[str, Any], emit) -> None:
+def _collect(outcomes: list[ScenarioOutcome], name: str, folder: str, res: dict[str, Any], emit: Emit) -> None:
     verdict = Verdict.model_validate(res["verdict"])
-    outcomes.append(ScenarioOutcome(name, verdict, timings=res["timings"]))
+    outcomes.append(ScenarioOutcome(name, verdict, timings=res["timings"], path=Path(folder)))
     emit("scenario_done", name=name, feasible=verdict.feasible, status=verdict.status, reason=verdict.reason)
 
 
-def _finish(out: Path, manifest: RunManifest, outcomes: list[ScenarioOutcome], emit) -> None:
+def summarize(manifest: RunManifest, outcomes: list[ScenarioOutcome]) -> dict[str, Any]:
     feasible = sum(o.verdict.feasible for o in outcomes)
     statuses: dict[str, int] = {}
     for o in outcomes:
         statuses[o.verdict.status] = statuses.get(o.verdict.status, 0) + 1
-    summary = {"behavior": manifest.behavior.text, "domain": manifest.behavior.domain,
-               "status": manifest.status, "scenarios": len(outcomes), "feasible": feasible,
-               "success_rate": (feasible / len(outcomes)) if outcomes else 0.0, "statuses": statuses,
-               "timings": manifest.timings, "usage": manifest.usage.get("total", {})}
-    write_json(out / "summary.json", summary)
-    try:
-        from regen.report import write_report
+    return {"behavior": manifest.behavior.text, "domain": manifest.behavior.domain,
+            "status": manifest.status, "scenarios": len(outcomes), "feasible": feasible,
+            "success_rate": (feasible / len(outcomes)) if outcomes else 0.0, "statuses": statuses,
+            "relaxed": sum(bool(o.verdict.relaxations) for o in outcomes),
+            "with_fallbacks": sum(bool(o.verdict.fallbacks) for o in outcomes),
+            "timings": manifest.timings, "usage": manifest.usage.get("total", {})}
 
-        t0 = time.perf_counter()
-        write_report(out)
-        manifest.timings["report"] = time.perf_counter() - t0
-        write_json(out / "run.json", manifest)
-    except ImportError:
-        pass
-    except Exception as exc:  # the report must never cost the run
-        log.warning("report failed: %s", exc)
+
+def _finish(run: RunFolder, manifest: RunManifest, outcomes: list[ScenarioOutcome], emit: Emit) -> None:
+    """Summary and report first, the manifest last: 'done' is only said when all is on disk."""
+    summary = summarize(manifest, outcomes)
+    write_json(run / run.SUMMARY, summary)
+    from regen.report import write_report
+
+    t0 = time.perf_counter()
+    try:
+        write_report(run.path)
+    except Exception as exc:  # the report must never cost the run; say so where users look
+        log.warning("report failed: %s", exc, exc_info=True)
+        manifest.message = (manifest.message + "; " if manifest.message else "") + f"report failed: {exc}"
+    manifest.timings["report"] = time.perf_counter() - t0
+    run.write_manifest(manifest)
     emit("finished", **{k: summary[k] for k in ("status", "scenarios", "feasible")})
 
 
-def list_runs(root: Path) -> list[tuple[Path, RunManifest]]:
-    """Run folders under ``root`` (or ``root`` itself), newest first."""
-    found = [root] if (root / "run.json").exists() else sorted(p.parent for p in root.glob("*/run.json"))
-    out = []
-    for p in found:
-        try:
-            out.append((p, RunManifest.model_validate_json((p / "run.json").read_text())))
-        except (OSError, ValueError):
-            continue
-    return sorted(out, key=lambda x: x[1].started, reverse=True)
-
-
-__all__ = ["RunManifest", "RunResult", "RunSettings", "generate", "list_runs", "load_graph"]
+__all__ = ["RunManifest", "RunResult", "RunSettings", "ScenarioOutcome", "generate", "ground_stage",
+           "run_path", "select_paths", "simulate_stage"]

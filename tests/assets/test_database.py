@@ -6,12 +6,13 @@ from pathlib import Path
 import pytest
 
 from regen.assets import load_database
+from regen.domains import database as domain_database
 from regen.errors import AssetDatabaseError, ConfigError
 
 
 @pytest.mark.parametrize("domain", ["driving", "manipulation"])
 def test_builtin_databases_load_and_cross_check(domain: str) -> None:
-    db = load_database(domain)
+    db = domain_database(domain)
     assert db.entities()
     g = db.graph()
     # every asset hangs under a category, every enumerated state under its property
@@ -23,7 +24,7 @@ def test_builtin_databases_load_and_cross_check(domain: str) -> None:
 
 
 def test_driving_database_has_the_issue_assets() -> None:
-    db = load_database("driving")
+    db = domain_database("driving")
     for a in ["sedan", "suv", "truck", "bus", "bicycle", "motorcycle", "ambulance", "police_car",
               "fire_truck", "adult", "child", "pedestrian_group", "debris", "traffic_cone", "barrier",
               "box", "parked_car", "traffic_light", "gnss", "camera"]:
@@ -31,13 +32,13 @@ def test_driving_database_has_the_issue_assets() -> None:
     assert db.property_candidates("ambulance", "siren") == ["on", "off"]
     assert db.property_candidates("traffic_light", "light_state")[:4] == ["red", "yellow", "green", "off"]
     assert "behind_adjacent_lane" in db.property_candidates("ambulance", "start_location")
-    assert load_database("manipulation").property_candidates("cup", "location") is None  # the model proposes these
+    assert domain_database("manipulation").property_candidates("cup", "location") is None  # the model proposes these
     assert "cross_the_road" in db.property_candidates("adult", "behavior")
     assert "target_speed" in db.parameters_of("sedan")
 
 
 def test_manipulation_database_has_articulated_furniture() -> None:
-    db = load_database("manipulation")
+    db = domain_database("manipulation")
     for a in ["door", "window", "drawer", "cabinet", "faucet", "oven", "fridge", "bucket", "pet", "child"]:
         assert a in db.assets, a
 
@@ -82,12 +83,51 @@ def test_invalid_json_names_line(tmp_path: Path) -> None:
 
 
 def test_missing_file_is_a_config_error(tmp_path: Path) -> None:
-    with pytest.raises(ConfigError, match="neither a built-in domain"):
+    with pytest.raises(ConfigError, match="is not an existing file"):
         load_database(tmp_path / "nope.json")
+    with pytest.raises(ConfigError, match=r"neither a domain \(driving, manipulation\) nor an existing file"):
+        domain_database("flying")
+    with pytest.raises(ConfigError, match="is a folder: give"):
+        domain_database(tmp_path)
+    with pytest.raises(ConfigError, match="is a folder: give"):
+        load_database(tmp_path)
+
+
+def test_non_utf8_file_says_to_save_it_as_utf8(tmp_path: Path) -> None:
+    p = tmp_path / "db.json"
+    p.write_bytes(b'{"name": "caf\xe9"}')
+    with pytest.raises(ConfigError, match=r"not UTF-8 text \(byte 0xe9 at offset 13\): save it as UTF-8"):
+        load_database(p)
+
+
+def test_deeply_nested_json_is_a_database_error(tmp_path: Path) -> None:
+    p = tmp_path / "deep.json"
+    p.write_text("[" * 100_000)
+    with pytest.raises(AssetDatabaseError, match="deep.json: JSON nested too deeply"):
+        load_database(p)
+
+
+@pytest.mark.parametrize("bad", ["\x00", "\x07", "\x1b", "\x9b", "\ud83d", "\udc15"])
+def test_control_characters_and_lone_surrogates_are_refused_with_their_place(tmp_path: Path, bad: str) -> None:
+    data = _minimal()
+    data["properties"]["siren"]["description"] = f"paint{bad}"
+    with pytest.raises(AssetDatabaseError, match=r"properties\.siren\.description = 'paint\\u"):
+        load_database(_write(tmp_path, data))  # json.dumps writes the escape, e.g. \ud83d
+    data = _minimal()
+    data["categories"][f"odd{bad}"] = data["categories"].pop(next(iter(data["categories"])))
+    with pytest.raises(AssetDatabaseError, match=r"categories\.odd\\u"):
+        load_database(_write(tmp_path, data))
+
+
+def test_emoji_tabs_and_newlines_are_kept(tmp_path: Path) -> None:
+    data = _minimal()
+    data["properties"]["siren"]["description"] = "paint 🎨,\tsee\r\nthe manual"
+    db = load_database(_write(tmp_path, data))  # json.dumps writes the emoji as a \ud83c\udfa8 pair
+    assert db.properties["siren"].description == "paint 🎨,\tsee\r\nthe manual"
 
 
 def test_driving_start_locations_are_the_simulators_placements() -> None:
     pytest.importorskip("scenic")
     from regen.driving.primitives import LOCATIONS
 
-    assert set(load_database("driving").properties["start_location"].states) == set(LOCATIONS)
+    assert set(domain_database("driving").properties["start_location"].states) == set(LOCATIONS)

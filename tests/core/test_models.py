@@ -170,8 +170,13 @@ def test_empty_behavior_is_refused_with_advice(text: str) -> None:
 
 
 def test_unknown_domain_and_unknown_keys_are_refused() -> None:
+    from regen import domains
+    from regen.errors import ConfigError
+
     with pytest.raises(ValidationError):
-        Behavior(text="x", domain="flying")  # type: ignore[arg-type]
+        Behavior(text="x", domain="")
+    with pytest.raises(ConfigError, match="unknown domain 'flying'; choose one of: driving, manipulation"):
+        domains.make_behavior("x", "flying")
     with pytest.raises(ValidationError):
         Behavior.model_validate({"text": "x", "domain": "driving", "txet": "typo"})
 

@@ -147,3 +147,20 @@ def test_bad_input_is_a_clear_error(straight_map, tmp_path):
         export_openscenario(scenario, Trace(dt=DT, times=[], actors={}), tmp_path)
     with pytest.raises(ConfigError, match="sample_dt"):
         export_openscenario(scenario, trace, tmp_path, sample_dt=0)
+
+
+def _trajectory_actors(root) -> set[str]:
+    return {g.find("Actors/EntityRef").get("entityRef") for g in root.iter("ManeuverGroup")}
+
+
+def test_only_moving_primitives_are_replayed_as_trajectories(straight_map, tmp_path):
+    scenario, trace = _case(straight_map)
+    trace.actors["cone1"].x = list(np.linspace(20.0, 21.0, trace.steps))  # nudged 1 m in the run
+    out = export_openscenario(scenario, trace, tmp_path / "unknown")
+    assert "cone1" in _trajectory_actors(ET.parse(out["xosc"]).getroot())  # no primitive: its path decides
+    entities = [e.model_copy(update={"behavior": b}) for e, b in
+                zip(scenario.entities, ["stop_abruptly", "drive_forward", "cross_the_road", "stationary"],
+                    strict=True)]
+    out = export_openscenario(scenario.model_copy(update={"entities": entities}), trace, tmp_path / "known")
+    assert validate_xosc(out["xosc"]) == []
+    assert _trajectory_actors(ET.parse(out["xosc"]).getroot()) == {"ego", "ambulance1", "adult1"}

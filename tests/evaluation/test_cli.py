@@ -89,7 +89,7 @@ def test_cli_lists_examples():
 def test_evaluate_edges_and_small_sets(tmp_path, fake_encoder):
     edges = tmp_path / "e.jsonl"
     edges.write_text(json.dumps({"kind": "entity->event", "source": "ambulance behind",
-                                 "candidate": "ambulance", "label": True}) + "\n")
+                                 "candidate": "ambulance", "label": True, "domain": "driving"}) + "\n")
     one = tmp_path / "one.txt"
     one.write_text("just one line\n")
     rep = evaluate([one], edges_file=edges, judge=lambda k, s, c, **kw: set(c),

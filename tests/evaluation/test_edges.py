@@ -89,9 +89,12 @@ def test_varying_judge_gives_a_spread_and_failures_are_counted():
 def test_load_file_and_errors(tmp_path):
     f = tmp_path / "edges.jsonl"
     f.write_text("# comment\n" + json.dumps({"kind": "event->event", "source": "a",
-                                             "candidate": "b", "label": True}) + "\n\n")
+                                             "candidate": "b", "label": True, "domain": "driving"}) + "\n\n")
     got = load_edge_examples(f)
     assert got[0].domain == "driving" and got[0].context is None
+    f.write_text(json.dumps({"kind": "event->event", "source": "a", "candidate": "b", "label": True}) + "\n")
+    with pytest.raises(ConfigError, match="line 1: domain: Field required"):
+        load_edge_examples(f)
     f.write_text(json.dumps({"kind": "event->entity", "source": "a", "candidate": "b",
                              "label": True}) + "\n")
     with pytest.raises(ConfigError, match="line 1: kind"):
@@ -118,11 +121,11 @@ def test_bundled_file_covers_domains_and_kinds():
 
 
 def test_entity_candidates_are_database_assets():
-    from regen.assets import load_database
+    from regen import domains
 
     for r in load_edge_examples(bundled_edge_examples()):
         if r.kind == "entity->event":
-            db = load_database(r.domain)
+            db = domains.make(r.domain).database()
             assert r.candidate in db.assets, r.candidate
 
 
@@ -147,7 +150,7 @@ def test_model_judge_adapts_to_judge_candidates(monkeypatch):
 
     monkeypatch.setattr(expand_edges, "judge_candidates", fake)
     judge = model_judge(llm=object())
-    assert judge("event->event", "stop", ["a", "b"]) == {"a"}
+    assert judge("event->event", "stop", ["a", "b"], domain="driving") == {"a"}
     got = judge("property->entity", "ambulance", ["siren: on", "siren: off", "start_location: behind"],
                 context="stop <- ambulance behind <- ambulance", domain="driving")
     assert got == {"siren: on", "start_location: behind"}

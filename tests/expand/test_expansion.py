@@ -38,7 +38,7 @@ def _model(**kw) -> ScriptedModel:
 
 
 def _run(model: ScriptedModel, limits: Limits | None = None, **kw) -> ScenarioGraph:
-    return expand(_behavior(), LLM(FunctionProvider(model)), limits=limits or Limits(max_depth=2), **kw)
+    return expand(_behavior(), LLM(FunctionProvider(model)), limits=limits or Limits(max_depth=2, max_causes=4, max_entities=3), **kw)
 
 
 def test_full_expansion_builds_events_entities_properties() -> None:

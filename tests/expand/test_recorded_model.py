@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from regen.assets import load_database
 from regen.core.behavior import Behavior
 from regen.core.graph import ScenarioGraph
+from regen.domains import database as domain_database
 from regen.expand import Limits, expand
 from regen.llm import LLM
 from regen.llm.cache import CallCache
@@ -18,14 +18,14 @@ CASSETTES = Path(__file__).resolve().parents[1] / "data" / "cassettes"
 
 CASES = {
     "expand_driving": (Behavior(text="the ego-vehicle stops abruptly while driving forward", domain="driving"),
-                       Limits(max_depth=1, max_causes=3)),
+                       Limits(max_depth=1, max_causes=3, max_entities=3)),
     "expand_manipulation": (Behavior(text="the robot opens the door", domain="manipulation", reward="open_door"),
-                            Limits(max_depth=1, max_causes=3)),
+                            Limits(max_depth=1, max_causes=3, max_entities=3)),
 }
 
 
 def _check(graph: ScenarioGraph) -> None:
-    db = load_database(graph.behavior.domain)
+    db = domain_database(graph.behavior.domain)
     ScenarioGraph.model_validate_json(graph.model_dump_json())
     for n in graph.nodes.values():
         if n.kind == "entity" and n.status == "accepted":

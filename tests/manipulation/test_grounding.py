@@ -5,6 +5,13 @@ from __future__ import annotations
 import pytest
 
 from regen.core import Behavior, CausePath, PathEntity
+from regen.errors import (
+    CacheMissError,
+    MissingAPIKeyError,
+    ModelFileError,
+    ProviderResponseError,
+    ProviderUnreachableError,
+)
 from regen.manipulation.grounding import GroundAnswer, PlacementChoice, ground_path
 
 pytest.importorskip("ortools")
@@ -41,7 +48,8 @@ def test_model_choice_is_used_and_bad_ones_fall_back(tmp_path):
     assert sc.narrative.startswith("The plant needs water")
     assert sc.entity("plant1").behavior_params["relation"] == "near"
     assert sc.entity("cup1").behavior_params["relation"] == "in"  # the rule for a cup at a sink
-    assert any("levitate" in r for r in sc.solver.relaxations)
+    assert any("levitate" in r for r in sc.fallbacks)
+    assert not any("levitate" in r for r in sc.solver.relaxations)
 
 
 def test_impossible_placement_reported_without_relaxation():
@@ -58,6 +66,7 @@ def test_impossible_placement_is_relaxed_and_said(tmp_path):
     assert sc.entity("cup1").behavior_params["relation"] != "in" or \
         sc.entity("cup1").behavior_params["reference"] != "table"
     assert any("table has no interior" in r for r in sc.solver.relaxations)
+    assert sc.fallbacks == []  # no model was asked: nothing replaced a model answer
 
 
 def test_path_entity_becomes_the_retrieved_item():
@@ -67,3 +76,51 @@ def test_path_entity_becomes_the_retrieved_item():
     assert roles.get("bottle_item") == "item"
     done = sc.fsm.state("robot", "task_done").all_of
     assert any(c.name == "holding" and c.args == ["robot", "bottle_item"] for c in done)
+
+
+def _pet_at_door() -> CausePath:
+    return _path("open_door", "the robot opens the door", ["the pet wants to come in"], ["pet"])
+
+
+def test_malformed_answer_falls_back_to_the_rules_and_says_so(tmp_path):
+    llm = _llm(tmp_path, "not json", '{"narrative": 3}', "still not json")  # first try + 2 re-asks
+    sc = ground_path(_pet_at_door(), llm)
+    assert sc.entity("pet1").behavior_params == {"relation": "outside", "reference": "door1"}
+    assert len(sc.fallbacks) == 1 and "model answer unusable" in sc.fallbacks[0]
+    assert "used the rules" in sc.fallbacks[0]
+    assert sc.solver.relaxations == []  # placement changes only
+    assert llm.provider.answers == []  # all three answers were spent
+
+
+def test_objects_the_model_left_out_are_said(tmp_path):
+    llm = _llm(tmp_path, GroundAnswer(narrative="The pet scratches at the door.", placements=[]))
+    sc = ground_path(_pet_at_door(), llm)
+    assert sc.narrative == "The pet scratches at the door."
+    assert sc.fallbacks == ["model gave no placement for pet1; used the rules"]
+
+
+def test_replay_cache_miss_propagates(tmp_path):
+    from regen.llm import LLM
+    from regen.llm.testing import QueuedProvider
+
+    cache = tmp_path / "empty.sqlite"
+    cache.touch()
+    llm = LLM(QueuedProvider([]), cache=cache, replay=True)
+    with pytest.raises(CacheMissError, match="replay mode"):
+        ground_path(_pet_at_door(), llm)
+
+
+@pytest.mark.parametrize("error", [ProviderUnreachableError, ProviderResponseError,
+                                   MissingAPIKeyError, ModelFileError])
+def test_provider_errors_propagate_unchanged(tmp_path, error):
+    from regen.llm import LLM
+    from regen.llm.testing import FunctionProvider
+
+    raised = error("the provider failed")
+
+    def fail(messages):
+        raise raised
+
+    with pytest.raises(error) as caught:
+        ground_path(_pet_at_door(), LLM(FunctionProvider(fail), cache=tmp_path / "c.sqlite"))
+    assert caught.value is raised

@@ -49,14 +49,20 @@ def make_run(tmp_path: Path) -> RunBuilder:
             vd = spec.get("verdict", verified())
             if vd is not None:
                 write_json(d / "verdict.json", vd)
+            roles = {}  # what the domain's render/export returned, as the pipeline records it
             if spec.get("gif", True):
                 tiny_gif(d / "bird_eye.gif")
+                roles["animation"] = "bird_eye.gif"
             if spec.get("keyframes", True):
                 tiny_png(d / "keyframes.png", (80, 20))
+                roles["keyframes"] = "keyframes.png"
             for flag, fname in (("scenic", "scenario.scenic"), ("xosc", "scenario.xosc"),
                                 ("trace", "trace.json")):
                 if spec.get(flag, False):
                     (d / fname).write_text("x\n")
+                    if flag != "trace":
+                        roles[flag] = fname
+            write_json(d / "files.json", roles)
             if "error" in spec:
                 (d / "error.txt").write_text(spec["error"])
             for fname, text in spec.get("raw", {}).items():

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from regen.assets import load_database
 from regen.core import (
     FSM,
     AbstractState,
@@ -17,15 +16,20 @@ from regen.core import (
     Trace,
 )
 from regen.domains import DomainBackend, SimulationOutput
+from regen.driving.backend import DrivingBackend
 
 
 class FakeBackend(DomainBackend):
+    """Stands in for the driving simulator (same name, database and wording)."""
+
     name = "driving"
+    database_resource = DrivingBackend.database_resource
+    wording = DrivingBackend.wording
+    predicates_module = DrivingBackend.predicates_module
+    check_behavior = DrivingBackend.check_behavior
+    settings_key = DrivingBackend.settings_key
     simulated: list[str] = []
     interrupt_on: str | None = None
-
-    def database(self):
-        return load_database("driving")
 
     def ground(self, path, llm, *, seed=0):
         if "impossible" in path.events[0]:

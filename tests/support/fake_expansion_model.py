@@ -7,16 +7,20 @@ import re
 
 
 class ScriptedModel:
-    """Maps (prompt kind, source text) to an answer; records the calls it saw."""
+    """Maps (prompt kind, source text) to an answer; records the calls it saw. Prompts that are
+    not expansion prompts (grounding) get ``then`` answers in order, else ``otherwise``."""
 
     def __init__(self, causes: dict[str, list[str]], plausible: dict[str, bool] | None = None,
                  entities: dict[str, list[str]] | None = None, values: dict[str, list[str]] | None = None,
-                 choose: dict[str, list[str]] | None = None):
+                 choose: dict[str, list[str]] | None = None, then: list | None = None,
+                 otherwise: str | None = None):
         self.causes = causes
         self.plausible = plausible or {}
         self.entities = entities or {}
         self.values = values or {}
         self.choose = choose or {}
+        self.then = list(then or [])
+        self.otherwise = otherwise
         self.kinds: list[str] = []
 
     def __call__(self, messages) -> str:
@@ -45,4 +49,11 @@ class ScriptedModel:
             out = {p: self.choose.get(p, []) for p in props}
             out["reason"] = "fits"
             return json.dumps(out)
+        if self.then:
+            self.kinds.append("other")
+            answer = self.then.pop(0)
+            return answer if isinstance(answer, str) else json.dumps(answer)
+        if self.otherwise is not None:
+            self.kinds.append("other")
+            return self.otherwise
         raise AssertionError("unexpected prompt: " + text[:200])

@@ -17,12 +17,13 @@ import json
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import networkx as nx
 from pydantic import Field, ValidationError
 
 from regen.core.base import Model
+from regen.core.text import UNSAFE, escaped
 from regen.errors import AssetDatabaseError, ConfigError
 
 
@@ -155,12 +156,46 @@ class AssetDatabase(Model):
         return "\n".join(lines)
 
 
+MAX_DATABASE_BYTES = 20_000_000  # an asset database is a small file; larger ones are not read
+
+# Control characters and lone surrogates (regen.core.text): no asset, category or description
+# needs them, and they break terminals, pages and UTF-8 files.
+_shown = escaped
+
+
+def _unsafe_text(raw: Any) -> str | None:
+    """Where the first unsafe character sits in parsed JSON ('assets.box.description'), if any.
+    Iterative: the parser accepts nesting deeper than a recursive walk could follow."""
+    stack: list[tuple[str, Any]] = [("", raw)]
+    while stack:
+        where, value = stack.pop()
+        if isinstance(value, str):
+            if UNSAFE.search(value):
+                return f"{where or '(top level)'} = '{_shown(value)}'"
+        elif isinstance(value, dict):
+            for k, v in reversed(list(value.items())):
+                here = f"{where}.{k}" if where else k
+                if UNSAFE.search(k):
+                    return _shown(here)
+                stack.append((here, v))
+        elif isinstance(value, list):
+            stack.extend((f"{where}[{i}]", v) for i, v in reversed(list(enumerate(value))))
+    return None
+
+
 def _parse(text: str, source: str) -> AssetDatabase:
     try:
         raw = json.loads(text)
     except json.JSONDecodeError as exc:
         raise AssetDatabaseError(f"{source}: not valid JSON at line {exc.lineno}, column "
                                  f"{exc.colno}: {exc.msg}") from None
+    except RecursionError:
+        raise AssetDatabaseError(f"{source}: JSON nested too deeply; an asset database is one "
+                                 "JSON object of categories, assets, properties and behaviors") from None
+    if (where := _unsafe_text(raw)) is not None:
+        raise AssetDatabaseError(f"{source}: {where}: contains a control character or lone "
+                                 "surrogate; remove it (write an emoji as itself, not as a "
+                                 "\\ud83d escape)")
     try:
         db = AssetDatabase.model_validate(raw)
     except ValidationError as exc:
@@ -173,19 +208,37 @@ def _parse(text: str, source: str) -> AssetDatabase:
     return db
 
 
-@lru_cache(maxsize=8)
-def _builtin(domain: str) -> AssetDatabase:
-    text = resources.files("regen.assets").joinpath("data", f"{domain}.json").read_text("utf-8")
-    return _parse(text, f"built-in {domain}.json")
+@lru_cache(maxsize=16)
+def load_packaged_database(package: str, resource: str) -> AssetDatabase:
+    """A database file shipped inside a package (a domain's own database), parsed once."""
+    try:
+        text = resources.files(package).joinpath(resource).read_text("utf-8")
+    except (FileNotFoundError, ModuleNotFoundError) as exc:
+        raise AssetDatabaseError(f"{package}/{resource}: the asset database file is missing ({exc})") from None
+    return _parse(text, f"{package}/{resource}")
 
 
-def load_database(domain_or_path: str | Path) -> AssetDatabase:
-    """The built-in database of a domain ('driving', 'manipulation'), or a user's JSON file."""
-    key = str(domain_or_path)
-    if key in ("driving", "manipulation"):
-        return _builtin(key)
-    path = Path(key)
-    if not path.exists():
-        raise ConfigError(f"asset database {key!r} is neither a built-in domain (driving, "
-                          "manipulation) nor an existing file")
-    return _parse(path.read_text("utf-8"), str(path))
+def load_database(path: str | Path) -> AssetDatabase:
+    """A user's asset database JSON file (a domain's own database: ``regen.domains.database``)."""
+    path = Path(path)
+    if path.is_dir():
+        raise ConfigError(f"asset database {str(path)!r} is a folder: give the path of a "
+                          "database .json file")
+    if not path.is_file():
+        raise ConfigError(f"asset database {str(path)!r} is not an existing file: give the path "
+                          "of a database .json file")
+    try:
+        if path.stat().st_size > MAX_DATABASE_BYTES:
+            raise ConfigError(f"asset database {str(path)!r} is larger than "
+                              f"{MAX_DATABASE_BYTES // 1_000_000} MB: give the path of a database "
+                              ".json file")
+        data = path.read_bytes()
+    except OSError as exc:
+        raise ConfigError(f"asset database {str(path)!r} cannot be read ({exc.strerror}): check "
+                          "its permissions") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"asset database {str(path)!r} is not UTF-8 text (byte "
+                          f"0x{data[exc.start]:02x} at offset {exc.start}): save it as UTF-8") from None
+    return _parse(text, str(path))

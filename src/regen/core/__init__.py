@@ -1,6 +1,6 @@
 """Typed values that cross stage boundaries: behavior, graph, scenario, trace, verdict."""
 
-from regen.core.behavior import Behavior, Domain
+from regen.core.behavior import Behavior
 from regen.core.graph import CausePath, Decision, Edge, Node, PathEntity, ScenarioGraph
 from regen.core.scenario import (
     FSM,
@@ -22,7 +22,6 @@ __all__ = [
     "Behavior",
     "CausePath",
     "Decision",
-    "Domain",
     "Edge",
     "Entity",
     "Node",

@@ -92,12 +92,12 @@ class SolverReport(Model):
     status: Literal["optimal", "feasible", "infeasible", "model_invalid", "unknown", "not_run"] = "not_run"
     wall_time: float = 0.0  # [s]
     conflicts: list[str] = Field(default_factory=list)  # constraints named in an infeasible core
-    relaxations: list[str] = Field(default_factory=list)  # what grounding relaxed, in words
+    relaxations: list[str] = Field(default_factory=list)  # placement constraints the solver relaxed, in words
 
 
 class Scenario(Model):
     id: str
-    domain: Literal["driving", "manipulation"]
+    domain: str  # a registered domain (regen.domains)
     behavior: Behavior
     causal_graph: list[str]  # event labels, root cause first, behavior last
     narrative: str
@@ -106,6 +106,8 @@ class Scenario(Model):
     parameters: dict[str, dict[str, Scalar]] = Field(default_factory=dict)  # per entity, solved
     world: dict[str, Scalar] = Field(default_factory=dict)  # map, duration [s], step [s], seed ...
     solver: SolverReport = Field(default_factory=SolverReport)
+    # parts of the scenario that rules wrote because the model's answer was unusable, in words
+    fallbacks: list[str] = Field(default_factory=list)
 
     @model_validator(mode="after")
     def _actors_known(self) -> Scenario:

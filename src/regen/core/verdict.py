@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from regen.core.base import Model
 
@@ -16,12 +16,28 @@ class StageResult(Model):
     satisfied_alone: dict[str, float | None] = Field(default_factory=dict)  # condition -> first time it held on its own
 
 
+VerdictStatus = Literal["verified", "verified_after_relaxation", "fsm_incomplete", "unsatisfiable",
+                        "grounding_failed", "simulation_failed", "invalid_scenario"]
+#: The statuses of a scenario that played out (``feasible`` is true exactly for these).
+FEASIBLE_STATUSES: tuple[str, ...] = ("verified", "verified_after_relaxation")
+
+
 class Verdict(Model):
+    """``verified``: the FSM as grounded was accepted. ``verified_after_relaxation``: accepted
+    only after over-strict stages were relaxed; ``relaxations`` says which and why."""
+
     feasible: bool
-    status: Literal["verified", "fsm_incomplete", "unsatisfiable", "grounding_failed",
-                    "simulation_failed", "invalid_scenario"]
+    status: VerdictStatus
     reason: str
     stages: list[StageResult] = Field(default_factory=list)
     first_unmet_stage: int | None = None  # 1-based
-    relaxations: list[str] = Field(default_factory=list)
+    relaxations: list[str] = Field(default_factory=list)  # FSM stages relaxed during verification
+    placement_relaxations: list[str] = Field(default_factory=list)  # what the solver relaxed
+    fallbacks: list[str] = Field(default_factory=list)  # scenario parts rules wrote for the model
     conflicts: list[str] = Field(default_factory=list)
+
+    @model_validator(mode="after")
+    def _feasible_matches_status(self) -> Verdict:
+        if self.feasible != (self.status in FEASIBLE_STATUSES):
+            raise ValueError(f"feasible={self.feasible} contradicts status {self.status!r}")
+        return self

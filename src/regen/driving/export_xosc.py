@@ -1,7 +1,8 @@
 """OpenSCENARIO 1.x export of a driving run, for replay in esmini, CARLA's ScenarioRunner & co.
 
 Every actor of the trace becomes an entity (vehicle, pedestrian or misc object, with its size and
-its scenario properties), is teleported to its first recorded pose, and, if it moves, follows the
+its scenario properties), is teleported to its first recorded pose, and, if it moves (and its
+motion primitive is one that OpenSCENARIO replays, ``Primitive.xosc_trajectory``), follows the
 recorded path as a timed polyline trajectory (positions subsampled, times absolute from the start
 of the run). The scenario's OpenDRIVE map is copied beside the ``.xosc`` and referenced by its
 file name, so the folder can be moved as a whole.
@@ -177,6 +178,19 @@ def _trajectory_event(xosc, name: str, track: ActorTrack, heading: np.ndarray, t
     return group
 
 
+def _standing(scenario: Scenario) -> set[str]:
+    """Actors whose motion primitive OpenSCENARIO does not replay as a trajectory (they stand);
+    the others, the ego included, get one when their recorded path is long enough."""
+    from regen.driving.primitives import find
+
+    out = set()
+    for e in scenario.entities:
+        spec = find(e.behavior) if e.kind != "ego" and e.behavior else None
+        if spec is not None and not spec.xosc_trajectory:
+            out.add(e.name)
+    return out
+
+
 def _map_file(scenario: Scenario, trace: Trace) -> Path | None:
     raw = trace.meta.get("map_path")
     if isinstance(raw, str) and raw and Path(raw).is_file():
@@ -205,9 +219,9 @@ def export_openscenario(scenario: Scenario, trace: Trace, out_dir: Path, *,
         raise ConfigError(f"sample_dt must be positive, got {sample_dt!r}")
     xosc = _xosc()
     try:
-        from regen.assets import load_database
+        from regen.driving.assets import database as driving_database
 
-        db = load_database("driving")
+        db = driving_database()
     except RegenError as exc:
         log.warning("driving asset database unavailable (%s); exporting every actor as an object", exc)
         db = None
@@ -228,6 +242,7 @@ def export_openscenario(scenario: Scenario, trace: Trace, out_dir: Path, *,
 
     names = _unique_names(list(trace.actors))
     props = {e.name: e.properties for e in scenario.entities}
+    standing = _standing(scenario)
     times = np.asarray(trace.times, float)
     entities = xosc.Entities()
     init = xosc.Init()
@@ -244,7 +259,7 @@ def export_openscenario(scenario: Scenario, trace: Trace, out_dir: Path, *,
         heading = _headings(track)
         init.add_init_action(name, xosc.TeleportAction(_position(xosc, track, heading, 0)))
         x, y = np.asarray(track.x, float), np.asarray(track.y, float)
-        if float(np.hypot(np.diff(x), np.diff(y)).sum()) >= MOVING:
+        if orig not in standing and float(np.hypot(np.diff(x), np.diff(y)).sum()) >= MOVING:
             if track.speed and kind != "misc":
                 init.add_init_action(name, xosc.AbsoluteSpeedAction(float(track.speed[0]), xosc.TransitionDynamics(
                     xosc.DynamicsShapes.step, xosc.DynamicsDimension.time, 0)))

@@ -11,67 +11,26 @@ from __future__ import annotations
 import hashlib
 import logging
 import math
-import re
 
-from regen.assets.database import AssetDatabase, load_database
+from regen.assets.database import AssetDatabase
 from regen.core.graph import CausePath
 from regen.core.scenario import FSM, Entity, Scenario
+from regen.driving.actors import PARKED_ASSETS, PEDESTRIAN_ASSETS, ActorSpec, RoleChoice
+from regen.driving.assets import database as driving_database
 from regen.driving.ego import EGO_SIZE, EgoTemplate, on_junction_map, template_for
-from regen.driving.fsm_rules import RoleChoice, rule_based_fsm
+from regen.driving.fsm_rules import rule_based_fsm
+from regen.driving.locations import LOCATIONS, Location, location_from_text
 from regen.driving.maps import geometry
 from regen.driving.plan import ActorPlan
-from regen.driving.primitives import (
-    ADJACENT_LOCATIONS,
-    BEHIND_LOCATIONS,
-    JUNCTION_LOCATIONS,
-    LOCATIONS,
-    PEDESTRIAN_ASSETS,
-    PRIMITIVE_LOCATIONS,
-    REACTION_TIME,
-    build_plan,
-    default_location,
-    roadside_d,
-)
-from regen.driving.solve import STATE_ONLY, ActorSpec, lane_offset, solve
+from regen.driving.primitives import for_actor, get, is_state_only
+from regen.driving.primitives.base import Placed
+from regen.driving.properties import state_schedules
+from regen.driving.solve import solve
 from regen.errors import ConfigError, GroundingError
 
 log = logging.getLogger(__name__)
 
 DT = 0.1  # simulation step [s]
-
-# Keywords that map free-text start locations (as the graph's property nodes hold them) to the
-# fixed location list; tried in order, all words of an entry must appear.
-_LOCATION_WORDS: list[tuple[tuple[str, ...], str]] = [
-    (("cross", "street"), "junction_cross_street"),
-    (("junction", "opposite"), "junction_oncoming"),
-    (("corner",), "junction_corner"),
-    (("crosswalk",), "crosswalk_ahead"),
-    (("oncoming",), "oncoming_lane"),
-    (("opposite", "side"), "roadside_opposite_ahead"),
-    (("roadside",), "roadside_ahead"),
-    (("sidewalk",), "roadside_ahead"),
-    (("curb",), "roadside_ahead"),
-    (("behind", "adjacent"), "behind_adjacent_lane"),
-    (("behind", "next"), "behind_adjacent_lane"),
-    (("behind", "other"), "behind_adjacent_lane"),
-    (("behind",), "behind_same_lane"),
-    (("front", "adjacent"), "ahead_adjacent_lane"),
-    (("ahead", "adjacent"), "ahead_adjacent_lane"),
-    (("front",), "ahead_same_lane"),
-    (("ahead",), "ahead_same_lane"),
-]
-
-
-def location_from_text(text: str) -> str | None:
-    """A start location from free text (exact ids pass through); None when nothing matches."""
-    t = text.strip().lower()
-    if t in LOCATIONS:
-        return t
-    words = set(re.findall(r"[a-z]+", t))
-    for keys, loc in _LOCATION_WORDS:
-        if all(k in words for k in keys):
-            return loc
-    return None
 
 
 def _default_primitive(db: AssetDatabase, asset: str) -> str:
@@ -81,6 +40,18 @@ def _default_primitive(db: AssetDatabase, asset: str) -> str:
     if "drive_forward" in behaviors:
         return "drive_forward"
     return "stationary" if "stationary" in behaviors else ""
+
+
+def default_location(primitive: str, asset: str) -> str:
+    """A sensible start location when none is given: pedestrians and parked cars at the road
+    side, else the first its primitive supports (lights and sensors: their own)."""
+    if asset in PEDESTRIAN_ASSETS or asset in PARKED_ASSETS:
+        return "roadside_ahead"
+    try:
+        starts = for_actor(asset, primitive).starts
+    except GroundingError:  # an unknown primitive: check_roles reports it
+        starts = ()
+    return starts[0] if starts else "ahead_same_lane"  # (a sensor has no place of its own)
 
 
 def _one(values: list[str], what: str, entity: str) -> str | None:
@@ -139,13 +110,13 @@ def check_roles(roles: list[RoleChoice], db: AssetDatabase) -> list[str]:
         if spec is None:
             problems.append(f"{r.name}: unknown asset {r.asset!r}")
             continue
-        if r.asset not in STATE_ONLY:
+        if not is_state_only(r.asset):
             if r.primitive not in spec.behaviors:
                 problems.append(f"{r.name}: a {r.asset} cannot {r.primitive!r}; it supports "
                                 f"{', '.join(spec.behaviors)}")
-            elif r.location not in PRIMITIVE_LOCATIONS.get(r.primitive, ()):
+            elif r.location not in get(r.primitive).starts:
                 problems.append(f"{r.name}: {r.primitive} cannot start at {r.location!r}; allowed: "
-                                f"{', '.join(PRIMITIVE_LOCATIONS.get(r.primitive, ()))}")
+                                f"{', '.join(get(r.primitive).starts)}")
         for key, val in r.properties.items():
             if key not in spec.properties:
                 problems.append(f"{r.name}: a {r.asset} has no property {key!r}")
@@ -156,11 +127,19 @@ def check_roles(roles: list[RoleChoice], db: AssetDatabase) -> list[str]:
     return problems
 
 
+def _where(r: RoleChoice) -> Location:
+    loc = LOCATIONS.get(r.location)
+    if loc is None:
+        raise GroundingError(f"{r.name}: unknown start location {r.location!r}; use one of "
+                             f"{', '.join(LOCATIONS)}")
+    return loc
+
+
 def choose_map(template: EgoTemplate, roles: list[RoleChoice]) -> EgoTemplate:
     """The template placed on a map that can host every role (GroundingError if none can)."""
-    needs_junction = [r.name for r in roles if r.location in JUNCTION_LOCATIONS
-                      or r.primitive in ("turn_left", "turn_right", "run_red_light")]
-    needs_lanes = [r.name for r in roles if r.location in ADJACENT_LOCATIONS]
+    needs_junction = [r.name for r in roles if _where(r).needs_junction
+                      or for_actor(r.asset, r.primitive).needs_junction]
+    needs_lanes = [r.name for r in roles if _where(r).needs_second_lane]
     t = template
     if needs_junction and not geometry(t.map).junction:
         options = [m for m in t.junction_maps if m == "four_way"]
@@ -175,7 +154,7 @@ def choose_map(template: EgoTemplate, roles: list[RoleChoice]) -> EgoTemplate:
         raise GroundingError(f"the map cannot host {', '.join(needs_lanes)}: the ego's road "
                              f"({t.map}) has no second lane in its direction")
     if t.id == "stop_after_turn":
-        behind = [r.name for r in roles if r.location in BEHIND_LOCATIONS]
+        behind = [r.name for r in roles if _where(r).behind_ego]
         if behind:
             raise GroundingError(f"the map cannot host {', '.join(behind)} behind the ego: it "
                                  "starts on another road before its turn")
@@ -187,9 +166,9 @@ def _size(db: AssetDatabase, asset: str) -> tuple[float, float, float]:
     return (float(s[0]), float(s[1]), float(s[2]))
 
 
-def _specs(roles: list[RoleChoice], db: AssetDatabase) -> list[ActorSpec]:
-    return [ActorSpec(r.name, r.asset, r.primitive, r.location, r.speed_class, _size(db, r.asset),
-                      dict(r.properties)) for r in roles]
+def _actor(r: RoleChoice, db: AssetDatabase) -> ActorSpec:
+    return ActorSpec(name=r.name, asset=r.asset, primitive=r.primitive, location=r.location,
+                     speed_class=r.speed_class, properties=dict(r.properties), size=_size(db, r.asset))
 
 
 def scenario_id(path: CausePath, seed: int) -> str:
@@ -203,7 +182,7 @@ def build_scenario(path: CausePath, roles: list[RoleChoice], *, narrative: str, 
     Raises :class:`GroundingError` for roles no map can host; an infeasible placement is a
     Scenario with ``solver.status == 'infeasible'`` and the conflicts named.
     """
-    db = db or load_database("driving")
+    db = db or driving_database()
     try:
         template = template_for(path.behavior.text, path.behavior.ego_template)
     except ConfigError as exc:
@@ -212,14 +191,14 @@ def build_scenario(path: CausePath, roles: list[RoleChoice], *, narrative: str, 
     if problems:
         raise GroundingError("; ".join(problems))
     template = choose_map(template, roles)
-    sol = solve(template, _specs(roles, db), seed=seed)
+    sol = solve(template, [_actor(r, db) for r in roles], seed=seed)
     entities = [Entity(name="ego", asset="ego", kind="ego", behavior=template.id,
                        behavior_params={"text": path.behavior.text})]
     for r in roles:
         kind = db.assets[r.asset].kind
         entities.append(Entity(name=r.name, asset=r.asset, kind="object" if kind == "sensor" else kind,
                                properties=dict(r.properties),
-                               behavior=None if r.asset in STATE_ONLY else r.primitive,
+                               behavior=None if is_state_only(r.asset) else r.primitive,
                                behavior_params={"location": r.location, "speed_class": r.speed_class}))
     if fsm is None:
         fsm = rule_based_fsm(roles, template)
@@ -237,7 +216,7 @@ def default_narrative(path: CausePath) -> str:
 
 def ground_rule_based(path: CausePath, *, seed: int = 0, db: AssetDatabase | None = None) -> Scenario:
     """The deterministic, model-free grounder."""
-    db = db or load_database("driving")
+    db = db or driving_database()
     roles = rule_based_roles(path, db)
     return build_scenario(path, roles, narrative=default_narrative(path), fsm=None,
                           grounder="rule-based", seed=seed, db=db)
@@ -261,72 +240,21 @@ def template_of(scenario: Scenario) -> EgoTemplate:
     return on_junction_map(t, m) if m != t.map else t
 
 
-def _state_schedules(r: RoleChoice, p: dict[str, float], t: EgoTemplate) -> dict[str, list]:
-    out: dict[str, list] = {}
-    ts = p.get("t", t.t_event - 1.0)
-    for key, val in r.properties.items():
-        if key == "door":
-            out[key] = [(0.0, "closed"), (ts, "open")] if val == "opens" else [(0.0, val)]
-        elif key == "light_state":
-            if val == "turns_red":
-                out[key] = [(0.0, "green"), (max(0.0, ts - 2.0), "yellow"), (ts, "red")]
-            elif val == "red" and t.id == "drive_forward":
-                out[key] = [(0.0, "red"), (ts, "green")]
-            else:
-                out[key] = [(0.0, val)]
-        elif key == "gnss_signal" and val != "nominal":
-            out[key] = [(0.0, "nominal"), (ts, val)]
-        elif key == "camera_view" and val != "clear":
-            out[key] = [(0.0, "clear"), (ts, val)]
-        elif key in ("behavior", "start_location", "end_location", "target_speed"):
-            continue
-        else:
-            out[key] = [(0.0, val)]
-    return out
-
-
 def plans_for(scenario: Scenario, db: AssetDatabase | None = None) -> tuple[EgoTemplate, list[ActorPlan]]:
     """Deterministic executable plans of a grounded scenario (the ego first)."""
-    db = db or load_database("driving")
+    db = db or driving_database()
     t = template_of(scenario)
     ex, ey = t.route[0]
     nx, ny = t.route[1]
     ego = ActorPlan(name="ego", asset="ego", kind="ego", cls="Car", x=ex, y=ey,
                     heading=math.atan2(ny - ey, nx - ex), length=EGO_SIZE[0], width=EGO_SIZE[1],
                     height=EGO_SIZE[2], speed0=t.speed0, route=list(t.route),
-                    schedule=list(t.schedule), comment=t.description)
+                    schedule=list(t.schedule), comment=t.description, scenic_behavior="FollowRoute")
     plans = [ego]
     for r in roles_of(scenario):
-        p = dict(scenario.parameters.get(r.name, {}))
-        size = _size(db, r.asset)
-        kind = db.assets[r.asset].kind
-        if kind == "sensor":
-            plan = ActorPlan(name=r.name, asset=r.asset, kind="sensor", cls="", x=ex, y=ey,
-                             heading=ego.heading, length=0.1, width=0.1, height=0.1,
-                             attach_to="ego", comment="sensor on the ego")
-        elif r.asset == "traffic_light" and not geometry(t.map).junction:
-            s = (t.s_end if t.stops else t.s_event) + 6.0
-            x, y = t.frame.point(s, t.frame.sidewalk_d("right"))
-            plan = ActorPlan(name=r.name, asset=r.asset, kind="object", cls="Object", x=x, y=y,
-                             heading=t.frame.heading + math.pi, length=size[0], width=size[1],
-                             height=size[2], comment="traffic light at a crossing")
-        else:
-            spec = ActorSpec(r.name, r.asset, r.primitive, r.location, r.speed_class, size, r.properties)
-            p["lane_d"] = lane_offset(t, spec)
-            if r.primitive == "drive_forward" and r.location == "ahead_same_lane" and "t" in p:
-                if t.stops:
-                    p["brake_t"] = p["t"]
-                elif t.speed_event == 0.0:
-                    p["start_t"] = p["t"]
-            if r.primitive == "drive_forward" and r.location == "behind_same_lane" and t.stops:
-                react = REACTION_TIME.get(r.properties.get("driver_state", "attentive"), 1.0)
-                p["brake_t"] = t.t_event + react
-            plan = build_plan(r.name, r.asset, "object" if kind == "object" else "agent", size,
-                              r.primitive, r.location, p, t)
-            if r.location in ("roadside_ahead", "roadside_opposite_ahead") and r.primitive == "stationary":
-                side = "left" if r.location == "roadside_opposite_ahead" else "right"
-                plan.x, plan.y = t.frame.point(p.get("s", 0.0), roadside_d(t, r.asset, size[1], side))
-        plan.states = _state_schedules(r, p, t)
-        plan.cls = plan.cls if kind != "sensor" else ""
+        params = dict(scenario.parameters.get(r.name, {}))
+        placed = Placed(actor=_actor(r, db), kind=db.assets[r.asset].kind, params=params, ego=t)
+        plan = for_actor(r.asset, r.primitive).plan(placed)
+        plan.states = state_schedules(r, params, t)
         plans.append(plan)
     return t, plans

@@ -1,4 +1,4 @@
-"""Answer schemas for model grounding, built per cause path, and the checks behind them.
+"""Answer schemas for model grounding, built per cause path: what the model fills in.
 
 Two small, flat schemas (the offline model is a 1.5B model with schema-constrained decoding):
 
@@ -11,7 +11,7 @@ Two small, flat schemas (the offline model is a 1.5B model with schema-constrain
   leading ``not``. The JSON schema carries a regex over the exact predicate and actor names, so
   constrained decoding can only write known calls; the validators here parse them (nothing is
   ever evaluated) and check arity, parameters, and whether the call can hold at all for the
-  chosen primitive and properties.
+  chosen primitive and properties (the rules of :mod:`regen.driving.feasibility`).
 
 Validators raise ``ValueError`` with a message that says what is allowed: the LLM layer sends
 it back to the model as a re-ask.
@@ -28,49 +28,28 @@ from pydantic import AfterValidator, Field, create_model, field_validator, model
 from regen.assets.database import AssetDatabase
 from regen.core.base import Answer
 from regen.core.scenario import FSM, AbstractState, PredicateCall, Stage, StateRef
+from regen.driving.actors import RoleChoice
 from regen.driving.ego import EgoTemplate
-from regen.driving.fsm_rules import RoleChoice
-from regen.driving.maps import geometry
-from regen.driving.primitives import (
-    PEDESTRIAN_ASSETS,
-    PRIMITIVE_LOCATIONS,
-    VEHICLE_SPEEDS,
-    WALK_SPEEDS,
-)
-from regen.driving.solve import STATE_ONLY
+from regen.driving.feasibility import available, never_holds
+from regen.driving.ground import choose_map
+from regen.driving.primitives import get, is_state_only
+from regen.driving.primitives.base import SPEED_CLASSES
 from regen.errors import GroundingError
-from regen.verify.predicates import PredicateSpec, list_predicates
+from regen.verify.predicates import PredicateSpec
 
-SPEED_CLASSES = ("slow", "moderate", "fast")
 MAX_STATES = 8
 MAX_STAGES = 6
 NARRATIVE_CHARS = 400  # [characters]
-# Left out of the model's menu: `state_is` duplicates the property predicates with free-text
-# keys, and `collided` asks for a crash that placements are solved to avoid.
-HIDDEN_PREDICATES = {"state_is", "collided"}
 LIGHT_VALUES = ("red", "yellow", "green", "off")
 _STATE_NAME = re.compile(r"^[a-z][a-z0-9_]{0,31}$")
 _CALL = re.compile(r"^(not )?([a-z_]+)\(([a-z0-9_]+)(?:, ?([a-z0-9_]+))?"
                    r"(?:, ?([a-z_]+)=([a-z0-9.]+))?\)$")
-# Primitives whose actor moves; lane changes and turns are the ones that leave their lane line.
-_MOVING_PRIMITIVES = {"drive_forward", "change_lane", "cut_in", "turn_left", "turn_right",
-                      "run_red_light", "cross_the_road", "walk_along"}
-_LANE_VEHICLE_PRIMITIVES = {"drive_forward", "change_lane", "cut_in", "turn_left", "turn_right",
-                            "run_red_light"}
-_SIDEWAYS_PRIMITIVES = {"change_lane", "cut_in", "turn_left", "turn_right"}
-_PROPERTY_PREDICATES = {"siren_on", "door_open", "hazard_lights_on", "light_is", "signal_degraded"}
-_MOTION_PREDICATES = {"moving", "braking", "accelerating", "steady", "turning", "changing_lane"}
-
-
-def menu(domain: str = "driving") -> list[PredicateSpec]:
-    """The predicates the model may choose from."""
-    return [s for s in list_predicates(domain) if s.name not in HIDDEN_PREDICATES]
 
 
 # --- roles ------------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class RoleOptions:
     """What the model may choose for one actor (empty tuples: nothing to choose)."""
 
@@ -90,15 +69,14 @@ class RoleOptions:
 
 def role_options(role: RoleChoice, db: AssetDatabase, template: EgoTemplate) -> RoleOptions:
     """The primitives and start locations ``role``'s asset supports on the ego's possible maps."""
-    from regen.driving.ground import choose_map
-
-    if role.asset in STATE_ONLY:
-        return RoleOptions(role.name, role.asset, (), {}, False)
+    if is_state_only(role.asset):
+        return RoleOptions(name=role.name, asset=role.asset, primitives=(), locations={}, moves=False)
     locations: dict[str, tuple[str, ...]] = {}
     for prim in db.assets[role.asset].behaviors:
         ok = []
-        for loc in PRIMITIVE_LOCATIONS.get(prim, ()):
-            trial = RoleChoice(role.name, role.asset, prim, loc, role.speed_class, {})
+        for loc in get(prim).starts:
+            trial = RoleChoice(name=role.name, asset=role.asset, primitive=prim, location=loc,
+                               speed_class=role.speed_class)
             try:
                 choose_map(template, [trial])
             except GroundingError:
@@ -106,8 +84,8 @@ def role_options(role: RoleChoice, db: AssetDatabase, template: EgoTemplate) -> 
             ok.append(loc)
         if ok:
             locations[prim] = tuple(ok)
-    return RoleOptions(role.name, role.asset, tuple(locations), locations,
-                       any(p in _MOVING_PRIMITIVES for p in locations))
+    return RoleOptions(name=role.name, asset=role.asset, primitives=tuple(locations), locations=locations,
+                       moves=any(get(p).moves for p in locations))
 
 
 def _lit(values: tuple[str, ...]) -> Any:
@@ -131,8 +109,6 @@ def role_schema(options: list[RoleOptions], defaults: list[RoleChoice],
     ``defaults`` (the rule-based roles, same order as ``options``) fill what the model does
     not choose (state-only objects, single options).
     """
-    from regen.driving.ground import choose_map
-
     # No length bounds in the JSON schema: llama.cpp turns maxLength into a deeply nested
     # grammar rule that made constrained decoding ~4x slower; the validator bounds it instead.
     fields: dict[str, Any] = {"narrative": (Annotated[str, AfterValidator(_narrative)], ...)}
@@ -183,7 +159,8 @@ def chosen_roles(answer: Any, options: list[RoleOptions], defaults: list[RoleCho
     out = []
     for o, d in zip(options, defaults, strict=True):
         prim, loc, speed = pick(answer, o, d)
-        out.append(RoleChoice(d.name, d.asset, prim, loc, speed, dict(d.properties)))
+        out.append(RoleChoice(name=d.name, asset=d.asset, primitive=prim, location=loc, speed_class=speed,
+                              properties=dict(d.properties)))
     return out
 
 
@@ -251,135 +228,9 @@ def _param_value(text: str, name: str, key: str, val: str, default: float | str)
     return num
 
 
-def _light_values(role: RoleChoice, template: EgoTemplate) -> set[str]:
-    from regen.driving.ground import _state_schedules
-
-    sched = _state_schedules(role, {}, template).get("light_state", [])
-    return {str(v) for _, v in sched}
-
-
-def never_holds(call: PredicateCall, roles: dict[str, RoleChoice], template: EgoTemplate) -> str | None:
-    """Why ``call`` (not negated) can never hold in the simulated scenario, or None.
-
-    Conservative: it names only what the primitives, properties and map rule out for sure.
-    """
-    if call.negate:
-        return None
-    a = call.args[0] if call.args else ""
-    name = call.name
-    junction = geometry(template.map).junction
-    if name == "in_junction" and not junction:
-        return f"{call} never holds: the map ({template.map}) has no junction"
-    if a == "ego":
-        return _ego_never(call, template)
-    r = roles.get(a)
-    if r is None:
-        return None
-    top = _top_speed(r)
-    if name in ("moving", "steady") and top is not None and _min_speed(call) >= top:
-        return f"{call} never holds: {a} ({r.speed_class}) moves at most {top:g} m/s"
-    props = r.properties
-    if r.asset in STATE_ONLY:
-        still = r.asset == "traffic_light"  # sensors ride on the ego and move with it
-    else:
-        still = r.primitive not in _MOVING_PRIMITIVES
-    if name in _MOTION_PREDICATES and still:
-        return f"{call} never holds: {a} ({r.asset}) does not move"
-    if name == "changing_lane" and r.primitive not in _SIDEWAYS_PRIMITIVES:
-        return f"{call} never holds: {a} ({r.primitive}) keeps its line"
-    if name == "turning" and r.primitive not in ("turn_left", "turn_right"):
-        return f"{call} never holds: {a} ({r.primitive}) does not turn"
-    if name == "on_sidewalk" and r.primitive in _LANE_VEHICLE_PRIMITIVES:
-        return f"{call} never holds: {a} drives in the lanes"
-    if name == "siren_on" and props.get("siren") != "on":
-        return f"{call} never holds: {a} has no siren switched on (siren={props.get('siren', 'unset')})"
-    if name == "door_open" and props.get("door") not in ("open", "opens"):
-        return f"{call} never holds: {a}'s door stays closed"
-    if name == "hazard_lights_on" and props.get("hazard_lights") != "on":
-        return f"{call} never holds: {a} has no hazard lights on"
-    if name == "brake_lights_on" and (r.asset in PEDESTRIAN_ASSETS or r.asset in STATE_ONLY
-                                      or still or props.get("brake_lights") == "broken"):
-        return f"{call} never holds: {a} shows no brake lights"
-    if name == "light_is":
-        if r.asset != "traffic_light":
-            return f"{call} never holds: {a} is not a traffic light"
-        values = _light_values(r, template)
-        want = str(call.params.get("value", "red"))
-        if want not in values:
-            shown = ", ".join(sorted(values)) or "nothing"
-            return f"{call} never holds: {a} shows {shown}"
-    if name == "signal_degraded":
-        bad = {k: v for k, v in props.items() if k in ("gnss_signal", "camera_view")
-               and v not in ("nominal", "clear")}
-        if not bad:
-            return f"{call} never holds: {a} has no degraded signal"
-    return None
-
-
-def _min_speed(call: PredicateCall) -> float:
-    default = 0.5 if call.name == "moving" else 2.0
-    return float(call.params.get("min_speed", default))
-
-
-def _top_speed(r: RoleChoice) -> float | None:
-    """The highest speed [m/s] the solver may give the actor (None: not a moving primitive)."""
-    if r.asset in STATE_ONLY or r.primitive not in _MOVING_PRIMITIVES:
-        return None
-    table = WALK_SPEEDS if r.asset in PEDESTRIAN_ASSETS else VEHICLE_SPEEDS
-    return table.get(r.speed_class, table["fast"])[1]
-
-
-def _ego_never(call: PredicateCall, t: EgoTemplate) -> str | None:
-    name = call.name
-    why = f"{call} never holds: the ego {t.description}"
-    top = max([t.speed0] + [v for _, v, _ in t.schedule])
-    if name in ("moving", "steady") and _min_speed(call) >= top:
-        return f"{call} never holds: the ego drives at most {top:g} m/s"
-    if name == "turning" and t.id != "stop_after_turn":
-        return why
-    if name == "changing_lane" and t.id not in ("change_lane", "stop_after_turn"):
-        return why
-    if name == "stopped" and t.id in ("slow_down", "change_lane"):
-        return why
-    if name == "braking" and t.id in ("drive_forward", "change_lane"):
-        return why
-    if name == "accelerating" and t.id != "drive_forward":  # starts at its cruising speed
-        return why
-    if name == "in_junction" and t.id == "stop_abruptly":
-        return why + " and stops before any junction"
-    if name == "on_sidewalk":
-        return why
-    if name in _PROPERTY_PREDICATES:
-        return f"{call} never holds: the ego has no such property in this toolkit"
-    return None
-
-
 def max_states(n_actors: int) -> int:
     """How many states an FSM answer may have (the ego included in ``n_actors``)."""
     return min(MAX_STATES, 2 * n_actors + 1)
-
-
-def available(roles: list[RoleChoice], template: EgoTemplate) -> list[PredicateSpec]:
-    """The menu without predicates that can hold for no actor of this scenario (no siren
-    predicate without a siren), so the prompt stays short and the choice easier."""
-    actors = ["ego"] + [r.name for r in roles]
-    by_name = {r.name: r for r in roles}
-    out = []
-    for spec in menu():
-        for a in actors:
-            other = [x for x in actors if x != a][:1]
-            if spec.arity == 2 and not other:
-                continue
-            call = PredicateCall(name=spec.name, args=[a] + other[: spec.arity - 1])
-            if spec.name == "light_is":
-                r = by_name.get(a)
-                if r is None or r.asset != "traffic_light" or not _light_values(r, template):
-                    continue
-            elif never_holds(call, by_name, template) is not None:
-                continue
-            out.append(spec)
-            break
-    return out
 
 
 def fsm_schema(roles: list[RoleChoice], template: EgoTemplate) -> type[Answer]:

@@ -15,9 +15,15 @@ validation error. What is still unusable after that falls back to the rule-based
 What came from where is recorded in ``scenario.world`` (``grounder`` = ``model`` |
 ``model+rules`` | ``rule-based``; ``model_parts``, ``rule_parts``, ``grounding_notes``, the
 provider id and the cache keys of the calls) and every fallback reason in
-``scenario.solver.relaxations``. An over-strict model FSM (two things at the same instant) is
-left as the model wrote it: :func:`regen.driving.backend.verify` relaxes it after simulation
-and records that too.
+``scenario.fallbacks``. An over-strict model FSM (two things at the same instant) is left as the
+model wrote it: verification relaxes it after simulation and records that in the verdict.
+
+Error policy: rules replace a part only when the model's answer for it is malformed
+(:class:`~regen.errors.MalformedAnswerError`: it never validated against the schema) or
+validated but fails the checks after it (no map hosts its roles, their placement is infeasible
+where the rules' is not, the monitor rejects its FSM). Every other error of the LLM layer (a
+replay cache miss, an unreachable provider, a provider error, a missing key or model file)
+propagates unchanged: a replay or configuration problem is never hidden behind the rules.
 """
 
 from __future__ import annotations
@@ -25,11 +31,13 @@ from __future__ import annotations
 import logging
 from typing import TYPE_CHECKING, Any
 
-from regen.assets.database import AssetDatabase, load_database
+from regen.assets.database import AssetDatabase
 from regen.core.graph import CausePath
 from regen.core.scenario import FSM, Scenario
+from regen.driving.actors import RoleChoice
+from regen.driving.assets import database as driving_database
 from regen.driving.ego import EgoTemplate, template_for
-from regen.driving.fsm_rules import RoleChoice
+from regen.driving.feasibility import available
 from regen.driving.ground import (
     build_scenario,
     default_narrative,
@@ -39,14 +47,14 @@ from regen.driving.ground import (
 )
 from regen.driving.llm_answers import (
     RoleOptions,
-    available,
     chosen_roles,
     fsm_schema,
     max_states,
     role_options,
     role_schema,
 )
-from regen.driving.primitives import LOCATIONS
+from regen.driving.locations import LOCATIONS
+from regen.driving.primitives import get
 from regen.errors import ConfigError, GroundingError, MalformedAnswerError
 from regen.prompting import render
 from regen.verify.monitor import validate_fsm
@@ -75,7 +83,7 @@ def _hints(pe_props: dict[str, list[str]]) -> str:
 
 
 def roles_prompt(path: CausePath, options: list[RoleOptions], schema: type) -> str:
-    db_assets = load_database("driving").assets
+    db_assets = driving_database().assets
     actors = []
     for o, pe in zip(options, path.entities, strict=True):
         actors.append({"name": o.name, "description": db_assets[o.asset].description,
@@ -84,14 +92,14 @@ def roles_prompt(path: CausePath, options: list[RoleOptions], schema: type) -> s
     keys = list(schema.model_fields)
     keys = keys[1:] + keys[:1]  # the narrative last in the sentence, first in the JSON
     return render(PKG, "ground_roles", behavior=path.behavior.text, events=path.events,
-                  actors=actors, places=[(loc, LOCATIONS[loc]) for loc in used], keys=keys)
+                  actors=actors, places=[(loc, LOCATIONS[loc].description) for loc in used], keys=keys)
 
 
 def _actor_line(r: RoleChoice) -> str:
     bits = [r.asset]
     if r.primitive and r.location:
         bits.append(f"{r.primitive.replace('_', ' ')} from {r.location}")
-        if r.primitive != "stationary":
+        if get(r.primitive).moves:  # (a light or sensor has the role 'stationary')
             bits.append(f"{r.speed_class} speed")
     bits += [f"{k}={v}" for k, v in r.properties.items()]
     return f"{r.name}: " + ", ".join(bits)
@@ -110,24 +118,29 @@ class _Grounding:
     def __init__(self, llm: LLM):
         self.llm = llm
         self.source: dict[str, str] = {}
-        self.notes: list[str] = []
+        self.path_notes: list[str] = []  # what the path said that no rule could use
+        self.fallbacks: list[str] = []  # what the rules wrote because the model's answer was unusable
         self.calls: list[str] = []
 
     def ask(self, prompt: str, schema: type, purpose: str) -> Any | None:
-        """The validated answer, or None (and a note) when it never validated."""
+        """The validated answer, or None (and a fallback note) when it never validated.
+
+        Only a malformed answer is caught: every other error of the LLM layer propagates.
+        """
         try:
             answered = self.llm.ask(prompt, schema, purpose=purpose,
                                     system=render(PKG, "ground_system"))
         except MalformedAnswerError as exc:
-            self.notes.append(f"{purpose}: the model's answer was unusable ({exc}); used the rules")
+            self.fallbacks.append(f"{purpose}: the model's answer was unusable ({exc}); used the rules")
             return None
         self.calls.append(answered.call_id)
         return answered.value
 
-    def use(self, part: str, source: str, note: str | None = None) -> None:
+    def use(self, part: str, source: str, fallback: str | None = None) -> None:
+        """Record where ``part`` came from, and why the rules wrote it when they did."""
         self.source[part] = source
-        if note:
-            self.notes.append(note)
+        if fallback:
+            self.fallbacks.append(fallback)
 
     @property
     def grounder(self) -> str:
@@ -145,11 +158,11 @@ class _Grounding:
             "llm": self.llm.provider.id,
             "model_calls": ",".join(self.calls),
         })
-        if self.notes:
-            world["grounding_notes"] = "; ".join(self.notes)
-        solver = scenario.solver.model_copy(
-            update={"relaxations": list(scenario.solver.relaxations) + self.notes})
-        return scenario.model_copy(update={"world": world, "solver": solver})
+        notes = self.path_notes + self.fallbacks
+        if notes:
+            world["grounding_notes"] = "; ".join(notes)
+        return scenario.model_copy(update={"world": world,
+                                           "fallbacks": list(scenario.fallbacks) + self.fallbacks})
 
 
 def _build(path: CausePath, roles: list[RoleChoice], narrative: str, seed: int,
@@ -220,19 +233,20 @@ def ground_with_model(path: CausePath, llm: LLM, *, seed: int = 0,
     """Ground one cause path with the model's roles, narrative and FSM (two calls).
 
     Unusable answers fall back to the rule-based parts (recorded in ``world`` and
-    ``solver.relaxations``). Raises :class:`GroundingError` only when the path itself cannot be
+    ``scenario.fallbacks``). Raises :class:`GroundingError` only when the path itself cannot be
     grounded (unknown asset, contradictory properties, no map for even the rule-based roles);
     errors of the LLM layer other than a malformed answer (replay miss, unreachable provider,
-    missing key) propagate, so a replay or configuration problem is never silently hidden.
+    provider error, missing key or model file) propagate unchanged, so a replay or configuration
+    problem is never silently hidden.
     """
-    db = db or load_database("driving")
+    db = db or driving_database()
     try:
         template = template_for(path.behavior.text, path.behavior.ego_template)
     except ConfigError as exc:
         raise GroundingError(str(exc)) from None
     defaults, notes = path_roles(path, db)
     g = _Grounding(llm)
-    g.notes += [f"path: {n}; the model or a default chooses instead" for n in notes]
+    g.path_notes += [f"path: {n}; the model or a default chooses instead" for n in notes]
     scenario = _ground_roles(path, g, template, defaults, seed, db)
     roles = roles_of(scenario)
     fsm = _ground_fsm(g, scenario, roles)

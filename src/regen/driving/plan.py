@@ -1,9 +1,10 @@
 """The executable form of a driving scenario: per actor, a pose, a route and a speed schedule.
 
 Grounding solves scalar parameters (lane, offset along the road [m], speed [m/s], trigger times
-[s]); :mod:`regen.driving.primitives` turns them into :class:`ActorPlan` values, which the Scenic
-writer prints and the property layer (:mod:`regen.driving.properties`) uses for states that the
-Newtonian model lacks (lights, sirens, doors, GNSS).
+[s]); each motion primitive (:mod:`regen.driving.primitives`) turns them into an
+:class:`ActorPlan`, which the Scenic writer prints; its ``states`` (from
+:mod:`regen.driving.properties`) carry what the Newtonian model lacks (lights, sirens, doors,
+GNSS).
 """
 
 from __future__ import annotations
@@ -32,6 +33,9 @@ class ActorPlan:
     # property -> [(t_from [s], value)], e.g. {'door': [(0, 'closed'), (4.2, 'open')]}
     states: dict[str, list[tuple[float, str]]] = field(default_factory=dict)
     attach_to: str | None = None  # sensors ride on this actor
+    # the Scenic behavior (program.scenic.j2) that follows the route: 'FollowRoute' (cars),
+    # 'WalkRoute' (pedestrians), '' (none)
+    scenic_behavior: str = ""
     comment: str = ""
 
     @property

@@ -2,12 +2,12 @@
 
 Nothing a model or user wrote reaches the program as code: actor names are whitelisted into
 identifiers, numbers are formatted from floats, and free text (the narrative) is written as a
-JSON-escaped string literal.
+Python string literal (``repr``), with lone surrogates replaced first: a JSON escape would split
+an emoji into two lone surrogates inside the program.
 """
 
 from __future__ import annotations
 
-import json
 import math
 import re
 from functools import lru_cache
@@ -20,6 +20,7 @@ from regen.errors import ConfigError
 
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,63}$")
 _SCENIC_CLASSES = {"Car", "Pedestrian", "Object"}
+_SCENIC_BEHAVIORS = {"", "FollowRoute", "WalkRoute"}  # those program.scenic.j2 defines
 
 
 def scenic_identifier(name: str) -> str:
@@ -32,6 +33,12 @@ def scenic_identifier(name: str) -> str:
         raise ConfigError(f"actor name {name!r} cannot be written as a Scenic identifier; use "
                           "letters, digits and underscores (at most 60 characters)")
     return ident
+
+
+def _literal(text: str) -> str:
+    """``text`` as one safe string literal of the program (quotes and controls escaped)."""
+    whole = text.encode("utf-16", "surrogatepass").decode("utf-16", "replace")  # pairs joined, lone ones replaced
+    return repr(whole)
 
 
 def _num(v: float) -> str:
@@ -74,19 +81,19 @@ def write_program(plans: list[ActorPlan], *, map_path: str, dt: float, max_steps
             continue
         if p.cls not in _SCENIC_CLASSES:
             raise ConfigError(f"actor {p.name!r}: unknown Scenic class {p.cls!r}")
+        if p.scenic_behavior not in _SCENIC_BEHAVIORS:
+            raise ConfigError(f"actor {p.name!r}: unknown Scenic behavior {p.scenic_behavior!r}")
         var = scenic_identifier(p.name)
         if var in seen:
             raise ConfigError(f"two actors map to the Scenic identifier {var!r}; rename one")
         seen.add(var)
         # Scenic measures headings from +y; the plan measures them from +x
         scenic_heading = math.degrees(p.heading) - 90.0
-        behavior = ""
-        if p.dynamic:
-            behavior = "WalkRoute" if p.cls == "Pedestrian" else ("FollowRoute" if p.cls == "Car" else "")
+        behavior = p.scenic_behavior if p.dynamic else ""
         actors.append({
             "var": var,
             "cls": p.cls,
-            "name": json.dumps(p.name),
+            "name": _literal(p.name),
             "comment": " ".join(f"{p.name}: {p.asset}. {p.comment}".split())[:200],
             "x": _num(p.x), "y": _num(p.y), "heading": _num(scenic_heading),
             "length": _num(max(p.length, 0.1)), "width": _num(max(p.width, 0.1)),
@@ -98,7 +105,7 @@ def write_program(plans: list[ActorPlan], *, map_path: str, dt: float, max_steps
         })
     return _template().render(
         title=" ".join(re.sub(r"[^A-Za-z0-9 _.,:;()-]", " ", title).split())[:200],
-        map_path=json.dumps(str(map_path)),
-        narrative=json.dumps(" ".join(narrative.split())),
+        map_path=_literal(str(map_path)),
+        narrative=_literal(" ".join(narrative.split())),
         seed=int(seed), dt=_num(dt), max_steps=int(max_steps), actors=actors,
     )

@@ -15,8 +15,9 @@ Labeled file (JSON lines, UTF-8, one example per line; blank lines and lines sta
   (candidate asset id -> source event), ``property->entity`` (candidate property value ->
   source entity);
 - ``label``: whether the edge is plausible; ``context`` (optional): the chain the source sits
-  in, behavior first, joined by ``<-`` (the source may end it); ``domain`` (optional, default
-  ``driving``): ``driving`` or ``manipulation``.
+  in, behavior first, joined by ``<-`` (the source may end it); ``domain``: a registered domain
+  (``regen.domains.names()``). Each domain ships its own labeled rows (its backend's
+  ``edge_examples``); ``regen eval --edges example`` runs the rows of every registered domain.
 
 Rows with the same (domain, kind, source, context) form one edge-construction call: the judge
 sees all candidates of a source at once, as the paper's edge construction does. Each trial
@@ -50,14 +51,14 @@ class EdgeExample(Model):
     candidate: str = Field(min_length=1)
     label: bool
     context: str | None = None
-    domain: Literal["driving", "manipulation"] = "driving"
+    domain: str = Field(min_length=1)
 
 
 class Judge(Protocol):
     """Edge construction under test: the accepted subset of ``candidates`` for ``source``."""
 
     def __call__(self, kind: str, source: str, candidates: list[str], *,
-                 context: str | None = None, domain: str = "driving") -> Iterable[str]: ...
+                 context: str | None = None, domain: str) -> Iterable[str]: ...
 
 
 class Metrics(BaseModel):
@@ -90,8 +91,10 @@ class EdgeReport(BaseModel):
     groups: list[GroupResult]
 
 
-def load_edge_examples(path: str | Path) -> list[EdgeExample]:
-    """Read a labeled JSON-lines file (format in the module doc); errors name the line."""
+def load_edge_examples(path: str | Path | list[Path]) -> list[EdgeExample]:
+    """Read a labeled JSON-lines file, or several (format in the module doc); errors name the line."""
+    if isinstance(path, list):
+        return [row for p in path for row in load_edge_examples(p)]
     path = Path(path)
     try:
         lines = path.read_text(encoding="utf-8").splitlines()
@@ -112,11 +115,18 @@ def load_edge_examples(path: str | Path) -> list[EdgeExample]:
     return out
 
 
-def bundled_edge_examples() -> Path:
-    """Path of the bundled labeled example file (driving + manipulation)."""
+def bundled_edge_examples() -> list[Path]:
+    """The labeled example files that the registered domains ship (one per domain that has one)."""
     from importlib import resources
 
-    return Path(str(resources.files("regen.evaluation") / "data" / "edges_example.jsonl"))
+    from regen import domains
+
+    out = []
+    for name in domains.names():
+        shipped = domains.backend_class(name).edge_examples
+        if shipped is not None:
+            out.append(Path(str(resources.files(shipped[0]).joinpath(shipped[1]))))
+    return out
 
 
 def metrics(labels: list[bool], predicted: list[bool]) -> Metrics:
@@ -224,7 +234,7 @@ def model_judge(llm) -> Judge:
                           "available in this installation") from exc
 
     def judge(kind: str, source: str, candidates: list[str], *, context: str | None = None,
-              domain: str = "driving") -> set[str]:
+              domain: str) -> set[str]:
         chain = context_chain(context, source)
         if kind != "property->entity":
             return set(judge_candidates(llm, kind, source, candidates, domain=domain,

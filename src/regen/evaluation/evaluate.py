@@ -50,7 +50,7 @@ def evaluate(
     sources: list[str | Path] | None = None,
     *,
     settings: EvalSettings | None = None,
-    edges_file: str | Path | None = None,
+    edges_file: str | Path | list[Path] | None = None,
     judge: Judge | None = None,
     judge_for_trial: Callable[[int], Judge] | None = None,
     out_dir: str | Path | None = None,

@@ -1,14 +1,11 @@
 """Read run folders defensively into flat records for evaluation.
 
-A run folder (written by ``regen run``) holds ``run.json`` (behavior, settings), ``graph.json``
-(the ScenarioGraph) and ``scenarios/<id>/scenario.json`` (a Scenario, possibly under the key
-``"scenario"``) with ``scenarios/<id>/verdict.json`` (a Verdict). Any of these may be missing
-or from an older format: what cannot be read becomes a note on the record, never a crash.
+The layout and the readers are :mod:`regen.runfolder`'s (docs/run-folder.md). Any file may be
+missing or from an older format: what cannot be read becomes a note on the record, never a crash.
 """
 
 from __future__ import annotations
 
-import json
 import logging
 from pathlib import Path
 from typing import Any
@@ -18,6 +15,7 @@ from pydantic import BaseModel, Field, ValidationError
 from regen.core.scenario import Scenario
 from regen.core.verdict import Verdict
 from regen.errors import ConfigError
+from regen.runfolder import RunFolder, read_json
 
 log = logging.getLogger(__name__)
 
@@ -48,17 +46,15 @@ class RunRecord(BaseModel):
 
 def is_run_folder(path: Path) -> bool:
     """A folder with ``run.json`` or a ``scenarios/`` subfolder."""
-    return path.is_dir() and ((path / "run.json").is_file() or (path / "scenarios").is_dir())
+    run = RunFolder(path)
+    return path.is_dir() and (run.is_run() or (run / run.SCENARIOS).is_dir())
 
 
 def _read_json(path: Path, notes: list[str]) -> Any:
-    try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        return None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        notes.append(f"{path.name}: unreadable ({exc.__class__.__name__}: {exc})")
-        return None
+    got = read_json(path)
+    if got.problem and got.problem != "missing":
+        notes.append(f"{path.name}: {got.problem}")
+    return got.value
 
 
 def _behavior_text(value: Any) -> str | None:
@@ -126,27 +122,27 @@ def load_run(path: str | Path) -> RunRecord:
     if not is_run_folder(path):
         raise ConfigError(f"{path} is not a run folder (no run.json and no scenarios/ folder)")
     notes: list[str] = []
-    run = _read_json(path / "run.json", notes) or {}
+    folder = RunFolder(path)
+    run = _read_json(folder / folder.MANIFEST, notes) or {}
     behavior = _behavior_text(run.get("behavior")) if isinstance(run, dict) else None
     domain = None
     if isinstance(run, dict):
         b = run.get("behavior")
         domain = run.get("domain") or (b.get("domain") if isinstance(b, dict) else None)
     if behavior is None:
-        graph = _read_json(path / "graph.json", notes)
+        graph = _read_json(folder / folder.GRAPH, notes)
         if isinstance(graph, dict):
             behavior = _behavior_text(graph.get("behavior"))
     rec = RunRecord(path=str(path), behavior=behavior or "", domain=domain, notes=notes)
-    scen_dir = path / "scenarios"
-    folders = sorted(p for p in scen_dir.iterdir() if p.is_dir()) if scen_dir.is_dir() else []
-    for folder in folders:
-        s = ScenarioRecord(id=folder.name, behavior=rec.behavior, domain=rec.domain)
-        sdata = _read_json(folder / "scenario.json", s.notes)
+    for name in folder.scenario_names():
+        sf = folder.scenario(name)
+        s = ScenarioRecord(id=name, behavior=rec.behavior, domain=rec.domain)
+        sdata = _read_json(sf / sf.SCENARIO, s.notes)
         if sdata is not None:
             _fill_from_scenario(s, sdata)
         else:
             s.notes.append("no scenario.json")
-        vdata = _read_json(folder / "verdict.json", s.notes)
+        vdata = _read_json(sf / sf.VERDICT, s.notes)
         if vdata is not None:
             _fill_from_verdict(s, vdata)
         rec.scenarios.append(s)

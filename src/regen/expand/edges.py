@@ -32,8 +32,19 @@ class Judged:
     unknown: dict[str, str] = field(default_factory=dict)  # names the model gave that were not offered
 
 
+def _wording(domain: str):
+    from regen import domains
+
+    return domains.backend_class(domain).wording
+
+
+def _render(name: str, domain: str, **variables: object) -> str:
+    """A shared prompt in the words of ``domain`` (its backend's ``wording``)."""
+    return render(PKG, name, wording=_wording(domain), **variables)
+
+
 def system_prompt(domain: str) -> str:
-    return render(PKG, "system", domain=domain)
+    return _render("system", domain)
 
 
 def _match(name: str, options: list[str]) -> str | None:
@@ -53,7 +64,7 @@ def _match(name: str, options: list[str]) -> str | None:
 def propose_events(llm: LLM, domain: str, chain: list[str], *, prior: str | None = None,
                    max_causes: int = 4) -> tuple[list[str], str]:
     """Candidate causes of ``chain[0]`` (chain runs from the source node to the behavior)."""
-    prompt = render(PKG, "event_proposal", domain=domain, chain=chain, source=chain[0],
+    prompt = _render("event_proposal", domain, chain=chain, source=chain[0],
                     prior=prior, max_causes=max_causes)
     got = llm.ask(prompt, EventProposal, purpose="event_proposal", system=system_prompt(domain))
     return got.value.causes[:max_causes], got.call_id
@@ -61,7 +72,7 @@ def propose_events(llm: LLM, domain: str, chain: list[str], *, prior: str | None
 
 def judge_events(llm: LLM, domain: str, chain: list[str], candidates: list[str]) -> Judged:
     """Which candidates plausibly and directly cause ``chain[0]`` (one call for all)."""
-    prompt = render(PKG, "event_edges", domain=domain, chain=chain, source=chain[0],
+    prompt = _render("event_edges", domain, chain=chain, source=chain[0],
                     candidates=candidates)
     got = llm.ask(prompt, EdgeJudgement, purpose="event_edges", system=system_prompt(domain))
     out = Judged(call_id=got.call_id)
@@ -81,7 +92,7 @@ def judge_events(llm: LLM, domain: str, chain: list[str], candidates: list[str])
 def select_entities(llm: LLM, db: AssetDatabase, domain: str, chain: list[str]) -> Judged:
     """Entities of the database directly related to the event ``chain[0]``."""
     options = db.entities()
-    prompt = render(PKG, "entity_edges", domain=domain, chain=chain, source=chain[0],
+    prompt = _render("entity_edges", domain, chain=chain, source=chain[0],
                     entities=[(a, db.assets[a].description) for a in options])
     got = llm.ask(prompt, EntitySelection, purpose="entity_edges", system=system_prompt(domain))
     out = Judged(call_id=got.call_id)
@@ -101,7 +112,7 @@ def propose_values(llm: LLM, domain: str, chain: list[str], event: str, entity: 
                               for p, d in properties}
     schema = create_model("FreeValues", __base__=Answer, **fields)
     prompt = "\n\n".join(
-        render(PKG, "property_proposal", domain=domain, chain=chain, event=event, entity=entity,
+        _render("property_proposal", domain, chain=chain, event=event, entity=entity,
                property=p, description=d, max_values=max_values).rsplit("\n\nAnswer as JSON", 1)[0]
         for p, d in properties)
     example = "{" + ", ".join(f'"{p}": ["...", "..."]' for p, _ in properties) + "}"
@@ -118,7 +129,7 @@ def select_properties(llm: LLM, domain: str, chain: list[str], event: str, entit
     fields: dict[str, Any] = {p: (list[str], Field(default_factory=list)) for p in options}
     fields["reason"] = (str, "")
     schema = create_model("PropertyValues", __base__=Answer, **fields)
-    prompt = render(PKG, "property_edges", domain=domain, chain=chain, event=event, entity=entity,
+    prompt = _render("property_edges", domain, chain=chain, event=event, entity=entity,
                     properties=[(p, d, v) for p, (d, v) in options.items()])
     example = "{" + ", ".join(f'"{p}": ["<value>"]' for p in options) + ', "reason": "..."}'
     prompt = prompt.rsplit("\n\nAnswer as JSON", 1)[0] + f"\n\nAnswer as JSON: {example}"
@@ -141,7 +152,7 @@ def select_properties(llm: LLM, domain: str, chain: list[str], event: str, entit
 
 
 def judge_candidates(llm: LLM, kind: str, source: str, candidates: list[str], *,
-                     domain: str = "driving", context: list[str] | None = None,
+                     domain: str, context: list[str] | None = None,
                      database: AssetDatabase | None = None) -> set[str]:
     """Edge construction for evaluation: the accepted subset of ``candidates`` for ``source``.
 
@@ -152,9 +163,9 @@ def judge_candidates(llm: LLM, kind: str, source: str, candidates: list[str], *,
     if kind == "event->event":
         return set(judge_events(llm, domain, chain, candidates).accepted)
     if kind == "entity->event":
-        from regen.assets import load_database
+        from regen import domains
 
-        db = database or load_database(domain)
+        db = database or domains.make(domain).database()
         return {a for a in select_entities(llm, db, domain, chain).accepted if a in candidates}
     if kind == "property->entity":
         entity, _, prop = source.partition(":")

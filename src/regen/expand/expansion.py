@@ -19,15 +19,19 @@ log = logging.getLogger(__name__)
 
 @dataclass
 class Limits:
-    """Stopping rules and sizes. Calls and tokens count everything this client has done."""
+    """Stopping rules and sizes. Calls and tokens count everything this client has done.
 
-    max_depth: int = 2  # event layers behind the behavior
-    max_nodes: int = 20  # accepted cause events (the behavior not counted)
+    These defaults are the toolkit's only ones: the main job's settings and both CLI commands
+    take theirs from here (sized so the offline model finishes the README job in minutes).
+    """
+
+    max_depth: int = 1  # event layers behind the behavior
+    max_nodes: int = 8  # accepted cause events (the behavior not counted)
     max_calls: int | None = None  # model calls (cache hits included)
     max_tokens: int | None = None  # input + output tokens
-    max_causes: int = 4  # candidates per proposal call
+    max_causes: int = 3  # candidates per proposal call
     max_values: int = 3  # proposed values per free property
-    max_entities: int = 3  # entities kept per event
+    max_entities: int = 2  # entities kept per event
 
 
 class _Stop(Exception):
@@ -300,9 +304,9 @@ def expand(behavior: Behavior, llm: LLM, *, database: AssetDatabase | None = Non
         graph: continue a saved graph instead of starting anew.
     """
     if database is None:
-        from regen.assets import load_database
+        from regen import domains
 
-        database = load_database(behavior.domain)
+        database = domains.make(behavior.domain).database()
     g = graph or ScenarioGraph.start(behavior)
     return Expander(llm, database, limits, prior=prior, on_update=on_update,
                     should_stop=should_stop).run(g, candidates)

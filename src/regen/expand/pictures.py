@@ -10,9 +10,12 @@ from pathlib import Path
 
 from regen.core.graph import ScenarioGraph
 from regen.core.io import atomic_write_text
+from regen.core.text import clean_data
 
 COLORS = {"event": "#4C78A8", "entity": "#F58518", "property": "#54A24B", "behavior": "#B279A2"}
 MUTED = "#BBBBBB"
+
+_clean = clean_data  # every string of the page's data without unsafe characters (regen.core.text)
 
 
 def layout(graph: ScenarioGraph) -> dict[str, tuple[float, float]]:
@@ -131,7 +134,8 @@ def draw_png(graph: ScenarioGraph, path: Path, *, dpi: int = 110) -> Path:
             label += "\n(not simulatable)"
         elif n.status == "rejected":
             label += "\n(rejected)"
-        ax.text(x, y, label, ha="center", va="center", fontsize=7.5,
+        # parse_math off: a model's '$x^$' is text, not a formula that fails to parse
+        ax.text(x, y, _clean(label), ha="center", va="center", fontsize=7.5, parse_math=False,
                 color="white" if alpha == 1.0 else "#444444",
                 bbox=dict(boxstyle=style, fc=color, ec="#333333" if alpha == 1.0 else "#999999",
                           lw=1.0, alpha=alpha, linestyle="-" if alpha == 1.0 else "--"))
@@ -146,7 +150,7 @@ def draw_png(graph: ScenarioGraph, path: Path, *, dpi: int = 110) -> Path:
     legend.append(Line2D([0], [0], marker="s", color="w", markerfacecolor=MUTED, markersize=10,
                          label="rejected / not simulatable"))
     ax.legend(handles=legend, loc="lower center", bbox_to_anchor=(0.5, -0.08), ncol=5, fontsize=8, frameon=False)
-    ax.set_title(f"Scenario graph: {graph.behavior.text}", fontsize=11)
+    ax.set_title(f"Scenario graph: {_clean(graph.behavior.text)}", fontsize=11, parse_math=False)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=dpi)
@@ -243,9 +247,9 @@ def write_html(graph: ScenarioGraph, path: Path) -> Path:
     edges = [{"source": e.source, "target": e.target, "status": e.status} for e in graph.edges
              if e.source in pos and e.target in pos]
     # JSON inside <script>: escape '<' so no text can close the script element
-    data = json.dumps({"nodes": nodes, "edges": edges}).replace("<", "\\u003c")
+    data = json.dumps(_clean({"nodes": nodes, "edges": edges})).replace("<", "\\u003c")
     legend = "".join(f'<span style="background:{c}">{k}</span>' for k, c in COLORS.items()) + \
         f'<span style="background:{MUTED};color:#333">rejected / not simulatable</span>'
-    page = _PAGE.format(title=html.escape(graph.behavior.text), legend=legend, data=data,
-                        stop=html.escape(graph.stop_reason or "completed"))
+    page = _PAGE.format(title=html.escape(_clean(graph.behavior.text)), legend=legend, data=data,
+                        stop=html.escape(_clean(graph.stop_reason or "completed")))
     return atomic_write_text(path, page)

@@ -79,7 +79,8 @@ def with_retries(fn: Callable[[], T], *, what: str, attempts: int = 4, base_dela
             if i == attempts - 1:
                 break
             delay = exc.retry_after if exc.retry_after is not None else base_delay * 2**i
-            delay = min(max_delay, delay) * (1 + 0.1 * random.random())
+            # clamped: a plugin may pass a negative or NaN Retry-After (NaN ends up max_delay)
+            delay = max(0.0, min(max_delay, delay)) * (1 + 0.1 * random.random())
             log.warning("%s failed (%s); retry %d/%d in %.1f s", what, exc, i + 1, attempts - 1, delay)
             sleep(delay)
     raise ProviderUnreachableError(f"{what} failed after {attempts} attempts: {last}. "

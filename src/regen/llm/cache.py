@@ -1,8 +1,9 @@
 """SQLite cache of model calls, keyed by a hash of everything that determines the answer.
 
 The key covers provider, model, messages, JSON schema and sampling settings, never API keys.
-Entries store the raw answer text with token counts and latency, so a replayed run reports the
-same usage as the original one.
+Entries store the answer text (as cleaned by the client) with token counts and latency, so a
+replayed run reports the same usage as the original one. Text that is not valid UTF-8 in a file
+(written by another tool or an older version) is read with U+FFFD in place of the bad bytes.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from typing import Any
 
 from regen.errors import CacheCorruptedError
 from regen.llm.base import Completion, Message, Sampling
+from regen.llm.sanitize import clean_text
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS calls (
@@ -37,7 +39,17 @@ def cache_key(provider_id: str, messages: list[Message], schema: dict[str, Any] 
               sampling: Sampling) -> str:
     payload = json.dumps({"provider": provider_id, "messages": messages, "schema": schema,
                           "sampling": asdict(sampling)}, sort_keys=True, ensure_ascii=False)
-    return hashlib.sha256(payload.encode("utf-8")).hexdigest()
+    # surrogatepass: a prompt may carry a lone surrogate (undecodable bytes in a command-line
+    # argument); valid text hashes exactly as with plain UTF-8
+    return hashlib.sha256(payload.encode("utf-8", "surrogatepass")).hexdigest()
+
+
+def _lenient_text(data: bytes) -> str:
+    return data.decode("utf-8", "replace")
+
+
+def _count(value: Any) -> int:
+    return value if isinstance(value, int) and value >= 0 else 0
 
 
 class CallCache:
@@ -52,6 +64,7 @@ class CallCache:
             target = str(self.path)
         try:
             self._db = sqlite3.connect(target, check_same_thread=False, timeout=30)
+            self._db.text_factory = _lenient_text
             self._db.execute("PRAGMA journal_mode=WAL" if self.path else "PRAGMA journal_mode=MEMORY")
             self._db.execute(_SCHEMA)
             self._db.commit()
@@ -73,7 +86,13 @@ class CallCache:
                                       "move or delete it and run again") from None
         if row is None:
             return None
-        return Completion(text=row[0], input_tokens=row[1], output_tokens=row[2]), float(row[3])
+        text, tokens_in, tokens_out, latency = row
+        if isinstance(text, bytes):  # stored as a blob by another tool
+            text = _lenient_text(text)
+        if not isinstance(text, str):
+            return None  # unusable: the call is made again and the entry overwritten
+        return (Completion(text=text, input_tokens=_count(tokens_in), output_tokens=_count(tokens_out)),
+                float(latency) if isinstance(latency, int | float) else 0.0)
 
     def put(self, key: str, provider_id: str, purpose: str, completion: Completion, latency: float) -> None:
         with self._lock:
@@ -89,15 +108,19 @@ class CallCache:
             rows = self._db.execute("SELECT key, provider, purpose, response, input_tokens, "
                                     "output_tokens, latency FROM calls ORDER BY created").fetchall()
         cols = ("key", "provider", "purpose", "response", "input_tokens", "output_tokens", "latency")
-        Path(path).write_text(json.dumps([dict(zip(cols, r, strict=True)) for r in rows], indent=1))
+        Path(path).write_text(json.dumps([dict(zip(cols, r, strict=True)) for r in rows], indent=1),
+                              encoding="utf-8")
         return len(rows)
 
     def import_json(self, path: str | Path) -> int:
-        """Load a JSON cassette written by :meth:`export_json`; returns the count."""
-        rows = json.loads(Path(path).read_text())
+        """Load a JSON cassette written by :meth:`export_json`; returns the count.
+
+        A cassette is edited by hand at times, so its answers are cleaned like a model's."""
+        rows = json.loads(Path(path).read_text(encoding="utf-8"))
         for r in rows:
             self.put(r["key"], r["provider"], r["purpose"],
-                     Completion(r["response"], r["input_tokens"], r["output_tokens"]), r["latency"])
+                     Completion(clean_text(r["response"]), r["input_tokens"], r["output_tokens"]),
+                     r["latency"])
         return len(rows)
 
     def __len__(self) -> int:

@@ -13,16 +13,20 @@ from typing import Any, Generic, TypeVar
 
 from pydantic import BaseModel, ValidationError
 
-from regen.errors import CacheMissError, MalformedAnswerError
+from regen.errors import CacheMissError, MalformedAnswerError, ProviderResponseError
 from regen.llm.base import Completion, Message, Provider, Sampling
 from regen.llm.cache import CallCache, cache_key
 from regen.llm.json_extract import extract_json
+from regen.llm.sanitize import clean_text, clean_value, shorten
 
 log = logging.getLogger(__name__)
 
 T = TypeVar("T", bound=BaseModel)
 R = TypeVar("R")
 I = TypeVar("I")  # noqa: E741
+
+MAX_ECHO_CHARS = 4000  # a re-ask shows the model at most this much of its invalid answer
+MAX_PROBLEM_CHARS = 1000  # validation problems quoted in a re-ask or an error message
 
 
 @dataclass
@@ -74,7 +78,7 @@ def _format_errors(exc: ValidationError) -> str:
     parts = []
     for err in exc.errors()[:8]:
         loc = ".".join(str(x) for x in err["loc"]) or "(answer)"
-        parts.append(f"{loc}: {err['msg']}")
+        parts.append(f"{shorten(loc, 100)}: {err['msg']}")
     return "; ".join(parts)
 
 
@@ -88,15 +92,24 @@ class LLM:
         max_reasks: how often an answer that fails validation is sent back with the errors.
         concurrency: how many calls :meth:`map` runs at once (an in-process model runs one at a time).
         sampling: temperature etc.; part of the cache key.
+        timeout: [s] per request to a remote provider (None: ``REGEN_LLM_TIMEOUT``, else 120 s);
+            only used when ``provider`` is a string. Not part of the cache key.
+        provider_options: passed to the provider factory (``base_url``, ``attempts`` ...).
+
+    Every answer is cleaned before it is cached or validated (:mod:`regen.llm.sanitize`): lone
+    surrogates replaced, control characters removed, strings cut to
+    :data:`~regen.llm.sanitize.MAX_TEXT_CHARS`.
     """
 
     def __init__(self, provider: str | Provider = "local", *, cache: str | Path | CallCache | None = None,
                  replay: bool = False, max_reasks: int = 2, concurrency: int = 4,
                  sampling: Sampling | None = None, on_call: Callable[[CallEvent], None] | None = None,
-                 **provider_options: Any):
+                 timeout: float | None = None, **provider_options: Any):
         if isinstance(provider, str):
             from regen.llm.registry import get_provider
 
+            if timeout is not None:
+                provider_options["timeout"] = timeout
             provider = get_provider(provider, **provider_options)
         self.provider = provider
         self.cache = cache if isinstance(cache, CallCache) else CallCache(cache)
@@ -134,6 +147,7 @@ class LLM:
         hit = self.cache.get(key)
         if hit is not None:
             completion, latency = hit
+            completion = self._clean(completion)  # entries written before cleaning existed
             self._record(purpose, completion, latency, cached=True, reask=reask)
             return completion, key, True
         if self.replay:
@@ -148,9 +162,21 @@ class LLM:
             with self._provider_lock:
                 completion = self.provider.complete(messages, schema=schema, sampling=self.sampling)
         latency = time.perf_counter() - start
+        completion = self._clean(completion)
         self.cache.put(key, self.provider.id, purpose, completion, latency)
         self._record(purpose, completion, latency, cached=False, reask=reask)
         return completion, key, False
+
+    def _clean(self, completion: Completion) -> Completion:
+        """The one place where answer text enters the toolkit: cleaned before caching."""
+        if not isinstance(completion.text, str):
+            raise ProviderResponseError(f"{self.provider.id} answered with "
+                                        f"{type(completion.text).__name__}, not text")
+        text = clean_text(completion.text)
+        if text == completion.text:
+            return completion
+        return Completion(text=text, input_tokens=completion.input_tokens,
+                          output_tokens=completion.output_tokens)
 
     def ask(self, messages: str | Sequence[Message], schema: type[T], *, purpose: str = "call",
             system: str | None = None) -> Answered[T]:
@@ -167,15 +193,15 @@ class LLM:
                                                     reask=attempt > 0)
             all_cached &= cached
             try:
-                value = schema.model_validate(extract_json(completion.text))
+                value = schema.model_validate(clean_value(extract_json(completion.text)))
                 return Answered(value=value, call_id=key, cached=all_cached, attempts=attempt + 1)
             except ValidationError as exc:
-                problem = _format_errors(exc)
+                problem = shorten(_format_errors(exc), MAX_PROBLEM_CHARS)
             except ValueError as exc:
-                problem = str(exc)
+                problem = shorten(str(exc), MAX_PROBLEM_CHARS)
             log.info("answer for %s did not validate (%s); re-asking", purpose, problem)
             msgs = msgs + [
-                {"role": "assistant", "content": completion.text},
+                {"role": "assistant", "content": shorten(completion.text, MAX_ECHO_CHARS)},
                 {"role": "user", "content": "Your answer is not valid: " + problem
                  + ". Reply again with only the corrected JSON object."},
             ]

@@ -113,6 +113,36 @@ def verify(path: Path, sha: str, *, force: bool = False) -> None:
     _write_stamp(path, sha)
 
 
+GGUF_MAGIC = b"GGUF"  # the first four bytes of every GGUF file
+
+
+def model_hint() -> str:
+    """What to pass instead of a model that cannot be used."""
+    return (f"give the path of a .gguf model file or a known model ({', '.join(sorted(MODELS))}), "
+            f"e.g. --llm local:{DEFAULT_MODEL}")
+
+
+def check_gguf(path: Path) -> Path:
+    """``path`` if it is a readable GGUF file; else ModelFileError saying what to give instead.
+    Reads four bytes, so a wrong path fails before any stage runs, not at the first model call."""
+    if path.is_dir():
+        inside = sorted(p.name for p in path.glob("*.gguf"))[:3]
+        found = f" (it holds {', '.join(inside)})" if inside else ""
+        raise ModelFileError(f"local model {path} is a folder{found}: {model_hint()}")
+    if not path.exists():
+        raise ModelFileError(f"local model {path} is neither a known model nor an existing file: "
+                             f"{model_hint()}")
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(len(GGUF_MAGIC))
+    except OSError as exc:
+        raise ModelFileError(f"local model {path} cannot be read ({exc.strerror}): {model_hint()}") from None
+    if head != GGUF_MAGIC:
+        raise ModelFileError(f"local model {path} is not a GGUF model file (it does not start with "
+                             f"'GGUF'): {model_hint()}")
+    return path
+
+
 def ensure_model(alias: str = DEFAULT_MODEL, *, progress: Callable[[int, int], None] | None = None) -> Path:
     """Path of the verified GGUF for ``alias``, joining the chunks into the cache on first use."""
     if alias not in MODELS:

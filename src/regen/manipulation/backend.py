@@ -4,22 +4,43 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from regen.assets.database import AssetDatabase, load_database
+from regen.core.behavior import Behavior
 from regen.core.graph import CausePath
 from regen.core.scenario import Scenario
 from regen.core.trace import Trace
 from regen.core.verdict import Verdict
-from regen.domains import DomainBackend, SimulationOutput
-from regen.errors import SimulationError
+from regen.domains import DomainBackend, ReportHints, SimulationOutput, Wording
+from regen.errors import ConfigError, SimulationError
+from regen.manipulation.assets import RESOURCE
+from regen.manipulation.behaviors import BEHAVIORS, resolve
 
 
 class ManipulationBackend(DomainBackend):
     """Ground with CP-SAT placement, simulate in PyBullet with the scripted controller."""
 
     name = "manipulation"
+    database_resource = RESOURCE
+    predicates_module = "regen.manipulation.predicates"
+    edge_examples = ("regen.manipulation", "data/edges_example.jsonl")
+    wording = Wording(
+        expert="household robot manipulation and home environments",
+        situation="home",
+        cause_rule=("Each cause must be a purpose or a situation in the home that makes the robot do "
+                    "this (for example who or what benefits), not the robot's own mechanics."),
+        value_hint='relative to the robot, the table or furniture, e.g. "on the table left of the robot"',
+    )
+    report_hints = ReportHints(animation="PyBullet camera view of the run",
+                               keyframes="frames from start to end (click for full size)",
+                               robot="robot")
 
-    def database(self) -> AssetDatabase:
-        return load_database("manipulation")
+    def check_behavior(self, behavior: Behavior) -> None:
+        if behavior.ego_template:
+            raise ConfigError("--ego is for driving behaviors; manipulation behaviors take --reward "
+                              f"(one of: {', '.join(sorted(BEHAVIORS))})")
+        resolve(behavior.reward, behavior.text)
+
+    def settings_key(self, behavior: Behavior) -> dict[str, str | None]:
+        return {"reward": resolve(behavior.reward, behavior.text).id}
 
     def ground(self, path: CausePath, llm, *, seed: int = 0) -> Scenario:
         from regen.manipulation.grounding import ground_path

@@ -4,10 +4,13 @@ The behavior stays fixed (a reward function the robot already has); the path sup
 purpose and the context objects. The model writes a narrative and chooses, per context object,
 one relation from :data:`regen.manipulation.placement.RELATIONS` to a scene reference. Its answer
 is data: names are checked against the scene, and anything missing or invalid falls back to
-documented rules (:data:`RULES`). CP-SAT then solves the positions. The FSM is assembled from
-the predicate library: stage 1 the context holds and the furniture is in its initial state,
-stage 2 the hand reaches the handle (or item), stage 3 the behavior's success predicates hold
-while the context still holds.
+documented rules (:data:`RULES`), each fallback said in ``scenario.fallbacks``. Only a bad answer
+falls back: a model that cannot be asked (replay cache miss, provider unreachable, missing key or
+model file) is an error for the caller. CP-SAT then solves the positions; what it had to change
+is said in ``scenario.solver.relaxations``. The FSM is assembled from the predicate library:
+stage 1 the context holds and the furniture is in its initial state, stage 2 the hand reaches
+the handle (or item), stage 3 the behavior's success predicates hold while the context still
+holds.
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ from importlib import resources
 from jinja2 import Environment, StrictUndefined
 from pydantic import Field
 
-from regen.assets.database import AssetDatabase, load_database
+from regen.assets.database import AssetDatabase
 from regen.core.base import Answer
 from regen.core.graph import CausePath
 from regen.core.scenario import (
@@ -32,7 +35,8 @@ from regen.core.scenario import (
     Stage,
     StateRef,
 )
-from regen.errors import ConfigError, GroundingError, RegenError
+from regen.errors import ConfigError, GroundingError, MalformedAnswerError
+from regen.manipulation.assets import database as manipulation_database
 from regen.manipulation.behaviors import ITEM_ASSETS, BehaviorDef, resolve
 from regen.manipulation.placement import (
     RELATIONS,
@@ -132,18 +136,24 @@ def ground_path(path: CausePath, llm: object | None = None, *, seed: int = 0, re
                 choices: dict[str, tuple[str, str]] | None = None) -> Scenario:
     """Turn a manipulation cause path into a scenario with solved placements and an FSM.
 
-    ``llm``: a :class:`regen.llm.LLM` (or None: rules only). ``choices``: explicit
+    ``llm``: a :class:`regen.llm.LLM` (or None: rules only). A malformed answer
+    (:class:`regen.errors.MalformedAnswerError`) or a choice that names no object, relation or
+    reference of this scene is replaced by the rules and said in ``scenario.fallbacks``; every
+    other model error (:class:`regen.errors.CacheMissError` in replay mode, an unreachable
+    provider, a missing key or model file) propagates unchanged. ``choices``: explicit
     ``{entity name: (relation, reference)}`` that override the model and the rules (tests,
     users). ``relax``: when the chosen relations cannot all hold, retry the conflicting objects
-    with the rules and record what changed; with ``relax=False`` an infeasible placement is
-    returned as is (``solver.status == 'infeasible'`` and the reason in ``solver.conflicts``).
+    with the rules and record what changed in ``solver.relaxations``; with ``relax=False`` an
+    infeasible placement is returned as is (``solver.status == 'infeasible'`` and the reason in
+    ``solver.conflicts``).
     """
     if path.behavior.domain != "manipulation":
         raise ConfigError(f"the path's behavior is a {path.behavior.domain} behavior, not manipulation")
     behavior = resolve(path.behavior.reward, path.behavior.text)
-    db = load_database("manipulation")
+    db = manipulation_database()
     fname = f"{behavior.furniture}1"
-    relaxations: list[str] = []
+    relaxations: list[str] = []  # placement changes: skipped or dropped objects, relaxed relations
+    fallbacks: list[str] = []  # what the rules wrote because the model's answer was unusable
 
     # --- entities: the item (if the path names one that fits) and the context objects -------
     item_asset = behavior.item.asset if behavior.item and behavior.script != "carry" else None
@@ -191,24 +201,33 @@ def ground_path(path: CausePath, llm: object | None = None, *, seed: int = 0, re
     narrative = ""
     chosen: dict[str, tuple[str, str]] = {}
     if llm is not None and context:
+        sizes = {n: s for n, _, s in context}
+        answered: set[str] = set()  # objects the model gave any choice for
         try:
-            answer = _ask(llm, path, behavior, geometry, context)
+            answer: GroundAnswer | None = _ask(llm, path, behavior, geometry, context)
+        except MalformedAnswerError as exc:
+            # only a bad answer falls back; a model that cannot be asked is the caller's error
+            answer = None
+            fallbacks.append(f"model answer unusable ({exc}); used the rules")
+        if answer is not None:
             narrative = " ".join(answer.narrative.split())[:600]
-            names = {n for n, _, _ in context}
+            if not narrative:
+                fallbacks.append("model narrative empty; used the rule narrative")
             for pc in answer.placements:
+                answered.add(pc.object)
                 ref = _ref_name(pc.reference.strip(), fname)
-                if pc.object in names and pc.relation in RELATIONS and ref in geometry.refs:
-                    req = Request(pc.object, "", dict((n, s) for n, _, s in context)[pc.object],
-                                  pc.relation, ref)
+                if pc.object in sizes and pc.relation in RELATIONS and ref in geometry.refs:
+                    req = Request(pc.object, "", sizes[pc.object], pc.relation, ref)
                     problems = structural_problems(req, geometry.refs)
                     if problems and relax:
-                        relaxations.append(f"model choice rejected: {problems[0]}")
+                        fallbacks.append(f"model choice rejected: {problems[0]}")
                         continue
                     chosen.setdefault(pc.object, (pc.relation, ref))
                 else:
-                    relaxations.append(f"model choice ignored: {pc.object} {pc.relation} {pc.reference}")
-        except RegenError as exc:
-            relaxations.append(f"model answer unusable ({type(exc).__name__}); used the rules")
+                    fallbacks.append(f"model choice ignored: {pc.object} {pc.relation} {pc.reference}")
+            missing = [n for n in sizes if n not in answered and not (choices and n in choices)]
+            if missing:
+                fallbacks.append(f"model gave no placement for {', '.join(missing)}; used the rules")
     for name, asset, size in context:
         if choices and name in choices:
             chosen[name] = (choices[name][0], _ref_name(choices[name][1], fname))
@@ -222,11 +241,11 @@ def ground_path(path: CausePath, llm: object | None = None, *, seed: int = 0, re
     if not narrative:
         narrative = _narrative(path, behavior, requests)
     return _scenario(path, behavior, fname, item_name, item_asset, item_size, geometry, requests,
-                     result, narrative, relaxations, seed)
+                     result, narrative, relaxations, fallbacks, seed)
 
 
 def _ask(llm: object, path: CausePath, behavior: BehaviorDef, geometry, context) -> GroundAnswer:
-    db = load_database("manipulation")
+    db = manipulation_database()
     prompt = _template().render(
         behavior=path.behavior.text, events=path.events, references=describe_geometry(geometry),
         objects=[{"name": n, "description": db.assets[a].description, "size": s}
@@ -284,7 +303,7 @@ def relation_call(obj: str, relation: str, reference: str) -> PredicateCall:
 
 def _scenario(path, behavior: BehaviorDef, fname: str, item_name, item_asset, item_size, geometry,
               requests: list[Request], result: PlacementResult, narrative: str,
-              relaxations: list[str], seed: int) -> Scenario:
+              relaxations: list[str], fallbacks: list[str], seed: int) -> Scenario:
     fx, fy = behavior.pose
     entities = [Entity(name="robot", asset="franka_panda", kind="robot", properties={"role": "robot"},
                        behavior=behavior.id),
@@ -326,7 +345,7 @@ def _scenario(path, behavior: BehaviorDef, fname: str, item_name, item_asset, it
                         entities=entities, fsm=fsm, parameters=params,
                         world={"behavior": behavior.id, "duration": DURATION, "seed": seed,
                                "simulator": "pybullet"},
-                        solver=solver)
+                        solver=solver, fallbacks=fallbacks)
     except ValueError as exc:
         raise GroundingError(f"the grounded scenario is inconsistent: {exc}") from exc
 

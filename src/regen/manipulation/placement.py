@@ -19,6 +19,7 @@ import random
 import time
 from dataclasses import dataclass, field
 
+from regen.cpsat import make_solver
 from regen.manipulation.behaviors import BehaviorDef
 from regen.manipulation.urdf import AABB, furniture
 
@@ -320,10 +321,7 @@ def solve_placement(requests: list[Request], geometry: SceneGeometry, *, seed: i
                     apart_from_box(a, box, f"keep{i}")
     m.Minimize(sum(objective))
     m.AddAssumptions(lits)
-    solver = cp_model.CpSolver()
-    solver.parameters.max_time_in_seconds = time_limit
-    solver.parameters.num_workers = 1  # the core of an infeasible model needs a single worker
-    solver.parameters.random_seed = seed
+    solver = make_solver(time_limit, seed=seed)
     status = solver.Solve(m)
     wall = time.perf_counter() - t0
     name = solver.StatusName(status).lower()

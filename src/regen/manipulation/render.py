@@ -2,7 +2,7 @@
 
 The trace is replayed into a freshly built scene (robot joint angles, furniture joints, object
 positions), so rendering needs no live simulation. Labels are drawn with Pillow at each object's
-projected position.
+projected position; the files are written by the shared media writer (:mod:`regen.media`).
 """
 
 from __future__ import annotations
@@ -12,14 +12,19 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw
 
-from regen.core.io import atomic_write_bytes
+from regen import media
 from regen.core.scenario import Scenario
 from regen.core.trace import Trace
 from regen.core.verdict import Verdict
+from regen.domains import ANIMATION, KEYFRAMES
 from regen.manipulation.scene import ARM_JOINTS, FINGER_JOINTS, Scene
 from regen.manipulation.simulate import layout_from_scenario
 
 WIDTH, HEIGHT = 320, 240  # [px]
+ANIMATION_FILE = "run.gif"
+KEYFRAMES_FILE = "strip.png"
+GIF_FRAME_MS = 150  # display time of each GIF frame [ms]
+HEADER_H = 28  # band above the strip for the narrative and the verdict [px]
 CAMERA = {"target": (0.6, 0.15, 0.3), "distance": 2.6, "yaw": -62.0, "pitch": -48.0}  # [m], [deg]
 
 
@@ -115,29 +120,22 @@ def render_frames(scenario: Scenario, trace: Trace, indices: list[int]) -> list[
 
 def render_run(scenario: Scenario, trace: Trace, verdict: Verdict, out_dir: Path,
                *, strip_frames: int = 4, gif_frames: int = 16) -> dict[str, Path]:
-    """Write ``strip.png`` (start .. end, with the narrative and verdict) and ``run.gif``."""
+    """Write ``strip.png`` (``strip_frames`` frames from start to end, below the narrative and
+    the verdict) and ``run.gif`` (``gif_frames`` frames spread over the run, 150 ms each) at
+    320x240 px a frame. Returns ``{ANIMATION: gif path, KEYFRAMES: png path}`` (roles of
+    :mod:`regen.domains`)."""
     out_dir = Path(out_dir)
-    n = trace.steps
-    strip_idx = sorted({int(round(k * (n - 1) / max(1, strip_frames - 1))) for k in range(strip_frames)})
-    gif_idx = sorted({int(round(k * (n - 1) / max(1, gif_frames - 1))) for k in range(gif_frames)})
-    frames = render_frames(scenario, trace, sorted(set(strip_idx) | set(gif_idx)))
-    by_idx = dict(zip(sorted(set(strip_idx) | set(gif_idx)), frames, strict=True))
-    header = 28
-    strip = Image.new("RGB", (WIDTH * len(strip_idx), HEIGHT + header), (255, 255, 255))
-    for k, i in enumerate(strip_idx):
-        strip.paste(by_idx[i], (k * WIDTH, header))
+    animation = media.AnimationSettings(max_frames=gif_frames, fps=None, frame_ms=GIF_FRAME_MS)
+    strip_idx = media.spread(trace.steps, strip_frames)
+    gif_idx = media.animation_steps(trace.times, animation)
+    wanted = sorted(set(strip_idx) | set(gif_idx))
+    by_idx = dict(zip(wanted, render_frames(scenario, trace, wanted), strict=True))
+    strip = media.strip([by_idx[i] for i in strip_idx], top_px=HEADER_H)
     d = ImageDraw.Draw(strip)
     d.text((4, 2), scenario.narrative[:200], fill=(0, 0, 0))
     d.text((4, 14), f"verdict: {verdict.status} - {verdict.reason[:150]}",
            fill=(0, 120, 0) if verdict.feasible else (170, 0, 0))
-    import io
-
-    buf = io.BytesIO()
-    strip.save(buf, format="PNG")
-    files = {"strip": atomic_write_bytes(out_dir / "strip.png", buf.getvalue())}
-    import imageio.v3 as iio
-
-    gif = iio.imwrite("<bytes>", [np.asarray(by_idx[i]) for i in gif_idx], extension=".gif",
-                      duration=150, loop=0)
-    files["gif"] = atomic_write_bytes(out_dir / "run.gif", gif)
-    return files
+    png = media.write_png(out_dir / KEYFRAMES_FILE, strip)
+    gif = media.write_gif(out_dir / ANIMATION_FILE, [by_idx[i] for i in gif_idx],
+                          media.frame_ms(trace.times, gif_idx, animation))
+    return {ANIMATION: gif, KEYFRAMES: png}

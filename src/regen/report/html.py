@@ -1,8 +1,9 @@
 """Write ``report.html``: one self-contained, offline page about a run folder.
 
-Everything a model or a user wrote reaches the page only through Jinja2 with autoescaping on,
-and pictures and files are relative links into the run folder, so the page needs no network
-and can be moved together with its folder.
+Everything a model or a user wrote reaches the page only through Jinja2 with autoescaping on
+and with control characters and lone surrogates stripped (:func:`clean_text`, the environment's
+``finalize``), and pictures and files are relative links into the run folder, so the page needs
+no network and can be moved together with its folder.
 """
 
 from __future__ import annotations
@@ -17,14 +18,16 @@ from pathlib import Path
 from typing import Any
 
 import jinja2
+from markupsafe import Markup
 
 from regen.core.io import atomic_write_text
+from regen.core.text import clean
 from regen.errors import ConfigError
 from regen.report.load import RunView, ScenarioView, load_run
 
 log = logging.getLogger(__name__)
 
-__all__ = ["render_report", "write_report"]
+__all__ = ["clean_text", "render_report", "write_report"]
 
 REPORT_NAME = "report.html"
 MAX_CONFIG_CHARS = 20_000  # the config block is for reading, not for copying whole traces
@@ -91,6 +94,14 @@ def parameter_rows(sv: ScenarioView) -> list[tuple[str, str, Any]]:
 
 # --- formatting filters -------------------------------------------------------------------------
 
+def clean_text(value: Any) -> Any:
+    """``value`` as page text without unsafe characters (the environment's ``finalize``, so it
+    applies to every ``{{ }}``). Markup from macros and ``| safe`` stays markup."""
+    if hasattr(value, "__html__"):
+        return Markup(clean(value.__html__()))
+    return clean(value if isinstance(value, str) else str(value))
+
+
 def fmt_value(value: Any) -> str:
     """Numbers short (3 decimals at most), everything else as text."""
     if isinstance(value, bool):
@@ -156,6 +167,7 @@ def _environment() -> jinja2.Environment:
         autoescape=True,  # every model- or user-written string is escaped
         undefined=jinja2.StrictUndefined,  # a typo in the template fails the tests, not silently
         trim_blocks=True, lstrip_blocks=True,
+        finalize=clean_text,  # the one place text is cleaned: every {{ }} passes through it
     )
     env.filters.update(value=fmt_value, seconds=fmt_seconds, percent=fmt_percent,
                        time=fmt_time, pretty_json=fmt_json)

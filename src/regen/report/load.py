@@ -7,96 +7,25 @@ and the page then shows the item as missing or unreadable.
 
 from __future__ import annotations
 
-import json
 import logging
-import re
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 from urllib.parse import quote
-
-from pydantic import BaseModel, ValidationError
 
 from regen.core.behavior import Behavior
 from regen.core.graph import CausePath, ScenarioGraph
 from regen.core.scenario import Scenario
 from regen.core.verdict import Verdict
+from regen.domains import ANIMATION, KEYFRAMES, ReportHints
+from regen.runfolder import RunFolder, ScenarioFolder, read_json, read_model, read_text
 
 log = logging.getLogger(__name__)
 
-M = TypeVar("M", bound=BaseModel)
-
-MAX_TEXT_CHARS = 20_000  # error.txt beyond this is cut: a report page is not a log viewer
-MAX_JSON_BYTES = 50_000_000  # larger files are not parsed (a trace can be big; the report skips it)
-# Scenario files the page links to when they exist, in the order shown.
-LINKED_FILES: tuple[str, ...] = ("scenario.scenic", "scenario.json", "scenario.xosc", "trace.json",
-                                 "verdict.json", "path.json", "timings.json", "error.txt")
-# A folder name from run.json is only trusted if it is one plain path component.
-_SAFE_NAME = re.compile(r"^[^/\\\x00]+$")
-
-
-@dataclass
-class Loaded:
-    """The outcome of reading one file: the value, or why there is none."""
-
-    value: Any = None
-    problem: str | None = None  # 'missing' or 'unreadable: ...'
-
-    @property
-    def ok(self) -> bool:
-        return self.problem is None
-
-
-def read_json(path: Path) -> Loaded:
-    """Parse a JSON file; a missing, oversized or broken file gives a problem, not an exception."""
-    if not path.is_file():
-        return Loaded(problem="missing")
-    try:
-        if path.stat().st_size > MAX_JSON_BYTES:
-            return Loaded(problem=f"unreadable: larger than {MAX_JSON_BYTES // 1_000_000} MB")
-        return Loaded(json.loads(path.read_text(encoding="utf-8")))
-    except (OSError, UnicodeDecodeError, ValueError) as exc:
-        return Loaded(problem=f"unreadable: {_short(exc)}")
-
-
-def read_model(path: Path, model: type[M], key: str | None = None) -> Loaded:
-    """Read a JSON file (or its ``key`` member) as a pydantic model."""
-    raw = read_json(path)
-    if not raw.ok:
-        return raw
-    data = raw.value
-    if key is not None:
-        if not isinstance(data, dict) or key not in data:
-            return Loaded(problem=f"unreadable: no {key!r} member")
-        data = data[key]
-    try:
-        return Loaded(model.model_validate(data))
-    except ValidationError as exc:
-        first = exc.errors()[0]
-        where = ".".join(str(p) for p in first.get("loc", ()))
-        return Loaded(problem=f"unreadable: {where or 'value'}: {first.get('msg', 'invalid')}"
-                              f" ({exc.error_count()} error(s))")
-    except Exception as exc:  # model validators may raise domain errors (e.g. GraphCycleError)
-        return Loaded(problem=f"unreadable: {_short(exc)}")
-
-
-def read_text(path: Path, limit: int = MAX_TEXT_CHARS) -> Loaded:
-    """Read a text file, cut to ``limit`` characters (a note says how much was left out)."""
-    if not path.is_file():
-        return Loaded(problem="missing")
-    try:
-        text = path.read_text(encoding="utf-8", errors="replace")
-    except OSError as exc:
-        return Loaded(problem=f"unreadable: {_short(exc)}")
-    if len(text) > limit:
-        text = text[:limit] + f"\n[... {len(text) - limit} more characters in the file]"
-    return Loaded(text)
-
-
-def _short(exc: BaseException, limit: int = 200) -> str:
-    msg = f"{type(exc).__name__}: {exc}"
-    return msg if len(msg) <= limit else msg[:limit] + "..."
+# Scenario files the page links to when they exist, in the order shown (then the domain's exports).
+LINKED_FILES: tuple[str, ...] = (ScenarioFolder.SCENARIO, ScenarioFolder.VERDICT, ScenarioFolder.TRACE,
+                                 ScenarioFolder.PATH, ScenarioFolder.TIMINGS, ScenarioFolder.ERROR)
 
 
 def href(*parts: str) -> str:
@@ -120,9 +49,8 @@ class ScenarioView:
     timings: dict[str, float] = field(default_factory=dict)
     error_text: str | None = None
     files: dict[str, str] = field(default_factory=dict)  # linked file name -> relative href
-    xodr: list[tuple[str, str]] = field(default_factory=list)  # (file name, href) of map files
-    gif: str | None = None  # href of bird_eye.gif
-    keyframes: str | None = None  # href of keyframes.png
+    gif: str | None = None  # href of the domain's animation
+    keyframes: str | None = None  # href of the domain's key frames
 
     @property
     def chain(self) -> list[str]:
@@ -149,8 +77,19 @@ class ScenarioView:
 
     @property
     def relaxations(self) -> list[str]:
+        """FSM stages relaxed during verification."""
+        return list(self.verdict.relaxations) if self.verdict else []
+
+    @property
+    def placement_relaxations(self) -> list[str]:
         return _unique((self.scenario.solver.relaxations if self.scenario else [])
-                       + (self.verdict.relaxations if self.verdict else []))
+                       + (self.verdict.placement_relaxations if self.verdict else []))
+
+    @property
+    def fallbacks(self) -> list[str]:
+        """Parts of the scenario that rules wrote where the model's answer was unusable."""
+        return _unique((self.scenario.fallbacks if self.scenario else [])
+                       + (self.verdict.fallbacks if self.verdict else []))
 
     @property
     def conflicts(self) -> list[str]:
@@ -168,6 +107,7 @@ class Summary:
     finished: int  # with a readable verdict
     feasible: int
     statuses: dict[str, int]  # verdict status (or 'unfinished'/'unreadable') -> count
+    relaxed: int = 0  # feasible only after relaxing the FSM
 
     @property
     def success_rate(self) -> float | None:
@@ -188,6 +128,7 @@ class RunView:
     graph_problem: str | None = None
     graph_png: str | None = None
     graph_html: str | None = None
+    hints: ReportHints = field(default_factory=ReportHints)  # the domain's captions
     scenarios: list[ScenarioView] = field(default_factory=list)
     stray: list[str] = field(default_factory=list)  # run.json names with no usable folder
 
@@ -197,88 +138,76 @@ class RunView:
         finished = [s for s in self.scenarios if s.verdict is not None]
         return Summary(total=len(self.scenarios), finished=len(finished),
                        feasible=sum(1 for s in finished if s.verdict and s.verdict.feasible),
-                       statuses=dict(sorted(statuses.items())))
+                       statuses=dict(sorted(statuses.items())),
+                       relaxed=sum(1 for s in finished if s.verdict and s.verdict.relaxations
+                                   and s.verdict.feasible))
 
     def run_field(self, key: str) -> Any:
         return self.run.get(key) if isinstance(self.run, dict) else None
 
 
-def _scenario_folders(run_dir: Path, listed: Any) -> tuple[list[str], list[str]]:
-    """Folder names in run order: those run.json lists, then any others on disk (sorted)."""
-    base = run_dir / "scenarios"
-    try:
-        on_disk = sorted(p.name for p in base.iterdir() if p.is_dir()) if base.is_dir() else []
-    except OSError as exc:
-        log.warning("cannot list %s: %s", base, exc)
-        on_disk = []
-    order: list[str] = []
-    stray: list[str] = []
-    if isinstance(listed, list):
-        for name in listed:
-            name = str(name)
-            if _SAFE_NAME.match(name) and name not in (".", "..") and name in on_disk:
-                if name not in order:
-                    order.append(name)
-            else:
-                stray.append(name)
-    order += [n for n in on_disk if n not in order]
-    return order, stray
-
-
-def load_scenario(run_dir: Path, folder: str, number: int) -> ScenarioView:
+def load_scenario(run: RunFolder, folder: str, number: int) -> ScenarioView:
     """Read one scenario folder; never raises for bad or missing files."""
-    d = run_dir / "scenarios" / folder
+    sf = run.scenario(folder)
     view = ScenarioView(number=number, folder=folder, anchor=f"scenario-{number}")
-    sc = read_model(d / "scenario.json", Scenario, key="scenario")
+    sc = read_model(sf / sf.SCENARIO, Scenario, key="scenario")
     view.scenario, view.scenario_problem = sc.value, sc.problem
-    raw = read_json(d / "scenario.json")
+    raw = read_json(sf / sf.SCENARIO)
     if raw.ok and isinstance(raw.value, dict):
         view.config = raw.value.get("config")
-    vd = read_model(d / "verdict.json", Verdict)
+    vd = read_model(sf / sf.VERDICT, Verdict)
     view.verdict, view.verdict_problem = vd.value, vd.problem
     if view.scenario is None:
-        view.path = read_model(d / "path.json", CausePath).value
-    tm = read_json(d / "timings.json")
-    if tm.ok and isinstance(tm.value, dict):
-        view.timings = {str(k): float(v) for k, v in tm.value.items()
-                        if isinstance(v, (int, float)) and not isinstance(v, bool)}
-    err = read_text(d / "error.txt")
+        view.path = read_model(sf / sf.PATH, CausePath).value
+    view.timings = sf.timings()
+    err = read_text(sf / sf.ERROR)
     view.error_text = err.value if err.ok else None
-    rel = ("scenarios", folder)
-    view.files = {name: href(*rel, name) for name in LINKED_FILES if (d / name).is_file()}
-    view.xodr = [(p.name, href(*rel, p.name)) for p in sorted(d.glob("*.xodr")) if p.is_file()]
-    # driving draws bird_eye.gif + keyframes.png; manipulation renders run.gif + strip.png
-    gif = next((n for n in ("bird_eye.gif", "run.gif") if (d / n).is_file()), None)
-    frames = next((n for n in ("keyframes.png", "strip.png") if (d / n).is_file()), None)
-    if gif:
-        view.gif = href(*rel, gif)
-    if frames:
-        view.keyframes = href(*rel, frames)
+    rel = (RunFolder.SCENARIOS, folder)
+    view.files = {name: href(*rel, name) for name in LINKED_FILES if (sf / name).is_file()}
+    roles = sf.files()  # what the domain's render/export wrote, by role
+    if ANIMATION in roles:
+        view.gif = href(*rel, roles[ANIMATION])
+    if KEYFRAMES in roles:
+        view.keyframes = href(*rel, roles[KEYFRAMES])
+    for role, name in roles.items():
+        if role not in (ANIMATION, KEYFRAMES):
+            view.files.setdefault(name, href(*rel, name))
     return view
+
+
+def _hints(domain: str | None) -> ReportHints:
+    from regen import domains
+    from regen.errors import RegenError
+
+    try:
+        return domains.backend_class(domain).report_hints if domain else ReportHints()
+    except (RegenError, ImportError):  # a run of a domain this installation lacks still shows
+        return ReportHints()
 
 
 def load_run(run_dir: Path) -> RunView:
     """Read a run folder (see docs/run-folder.md) into a :class:`RunView`; never raises for
     missing or broken files inside it."""
-    run_dir = Path(run_dir)
-    view = RunView(run_dir=run_dir)
-    run = read_json(run_dir / "run.json")
-    if run.ok and not isinstance(run.value, dict):
-        run = Loaded(problem="unreadable: not a JSON object")
-    view.run, view.run_problem = run.value, run.problem
-    graph = read_model(run_dir / "graph.json", ScenarioGraph)
+    run = RunFolder(run_dir)
+    view = RunView(run_dir=run.path)
+    raw = run.read_manifest_raw()
+    view.run, view.run_problem = raw.value, raw.problem
+    graph = read_model(run / run.GRAPH, ScenarioGraph)
     view.graph, view.graph_problem = graph.value, graph.problem
-    behavior = read_model(run_dir / "run.json", Behavior, key="behavior")
+    behavior = read_model(run / run.MANIFEST, Behavior, key="behavior")
     if behavior.ok:
         view.behavior = behavior.value
     elif view.graph is not None:  # the graph carries the behavior too
         view.behavior = view.graph.behavior
     else:
         view.behavior_problem = behavior.problem
-    if (run_dir / "graph.png").is_file():
+    view.hints = _hints(view.behavior.domain if view.behavior else None)
+    if (run / "graph.png").is_file():
         view.graph_png = href("graph.png")
-    if (run_dir / "graph.html").is_file():
+    if (run / "graph.html").is_file():
         view.graph_html = href("graph.html")
-    folders, view.stray = _scenario_folders(run_dir, view.run_field("scenarios"))
-    view.scenarios = [load_scenario(run_dir, f, i) for i, f in enumerate(folders, start=1)]
+    folders = run.scenario_names()
+    listed = view.run_field("scenarios")
+    view.stray = [str(n) for n in listed if str(n) not in folders] if isinstance(listed, list) else []
+    view.scenarios = [load_scenario(run, f, i) for i, f in enumerate(folders, start=1)]
     return view

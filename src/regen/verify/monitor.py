@@ -60,6 +60,12 @@ def _first(mask: np.ndarray, start: int) -> int | None:
     return int(idx[0]) + start if idx.size else None
 
 
+def _notes(scenario: Scenario) -> dict[str, list[str]]:
+    """What grounding recorded that the verdict must carry (never passed silently)."""
+    return {"placement_relaxations": list(scenario.solver.relaxations),
+            "fallbacks": list(scenario.fallbacks)}
+
+
 def check_fsm(scenario: Scenario, trace: Trace) -> Verdict:
     """Run the FSM of ``scenario`` over ``trace`` and return the verdict."""
     fsm = scenario.fsm
@@ -69,7 +75,7 @@ def check_fsm(scenario: Scenario, trace: Trace) -> Verdict:
         problems.append(f"the trace has no record of actor(s) {missing}")
     if problems:
         return Verdict(feasible=False, status="invalid_scenario", reason="; ".join(problems),
-                       relaxations=list(scenario.solver.relaxations))
+                       **_notes(scenario))
     masks = {(s.actor, s.name): evaluate_state(s, trace, scenario.domain) for s in fsm.states}
     results: list[StageResult] = []
     start = 0
@@ -96,7 +102,7 @@ def check_fsm(scenario: Scenario, trace: Trace) -> Verdict:
         return Verdict(feasible=True, status="verified",
                        reason=f"all {len(results)} stages reached in order; accepted at "
                               f"t={results[-1].reached_at:.1f} s",
-                       stages=results, relaxations=list(scenario.solver.relaxations))
+                       stages=results, **_notes(scenario))
     stage = results[first_unmet - 1]
     never = [lab for lab, t in stage.satisfied_alone.items() if t is None]
     if never:
@@ -105,5 +111,4 @@ def check_fsm(scenario: Scenario, trace: Trace) -> Verdict:
         why = "each condition held at some time, but never all at once"
     return Verdict(feasible=False, status="fsm_incomplete",
                    reason=f"stage {first_unmet} ({'; '.join(stage.conditions)}) was not reached: {why}",
-                   stages=results, first_unmet_stage=first_unmet,
-                   relaxations=list(scenario.solver.relaxations))
+                   stages=results, first_unmet_stage=first_unmet, **_notes(scenario))

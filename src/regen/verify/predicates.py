@@ -4,9 +4,9 @@ A predicate is project code, evaluated on a whole :class:`~regen.core.trace.Trac
 returns one boolean per step. The LLM only names predicates and their arguments; the names are
 checked against this registry before anything runs.
 
-Domain modules (``regen.driving.predicates``, ``regen.manipulation.predicates``) register their
-own predicates with :func:`predicate`; they are imported lazily by :func:`list_predicates` and
-must import nothing heavier than numpy.
+A domain's own predicates live in the module its backend names (``predicates_module``); they are
+registered with :func:`predicate`, imported lazily on first use, and must import nothing heavier
+than numpy.
 """
 
 from __future__ import annotations
@@ -22,10 +22,7 @@ from regen.errors import ConfigError
 
 PredicateFn = Callable[[Trace, list[str], dict], np.ndarray]
 
-DOMAIN_MODULES = {
-    "driving": "regen.driving.predicates",
-    "manipulation": "regen.manipulation.predicates",
-}
+SHARED = "*"  # the table of predicates that hold in every domain
 
 
 @dataclass(frozen=True)
@@ -34,7 +31,7 @@ class PredicateSpec:
     arity: int  # number of actor arguments
     doc: str  # one line, shown to the model and in the docs
     fn: PredicateFn
-    domains: tuple[str, ...] = ("driving", "manipulation")
+    domains: tuple[str, ...] = (SHARED,)  # SHARED: every domain
     params: dict[str, float | str] = field(default_factory=dict)  # name -> default
 
     def signature(self) -> str:
@@ -43,15 +40,15 @@ class PredicateSpec:
         return f"{self.name}({', '.join(args + extra)})"
 
 
-# domain -> name -> spec: domains may use the same name for their own meaning ('behind' on a
-# road is about lanes and travel direction; on a table it is about the robot's view).
-_REGISTRY: dict[str, dict[str, PredicateSpec]] = {d: {} for d in DOMAIN_MODULES}
+# domain (or SHARED) -> name -> spec: a domain may use a shared name for its own meaning ('behind'
+# on a road is about lanes and travel direction; on a table it is about the robot's view).
+_REGISTRY: dict[str, dict[str, PredicateSpec]] = {SHARED: {}}
 _LOADED: set[str] = set()
 
 
-def predicate(name: str, arity: int, doc: str, *, domains: tuple[str, ...] = ("driving", "manipulation"),
+def predicate(name: str, arity: int, doc: str, *, domains: tuple[str, ...] = (SHARED,),
               params: dict[str, float | str] | None = None) -> Callable[[PredicateFn], PredicateFn]:
-    """Register a predicate function under ``name`` for ``domains``."""
+    """Register a predicate function under ``name`` for ``domains`` (default: every domain)."""
 
     def deco(fn: PredicateFn) -> PredicateFn:
         spec = PredicateSpec(name, arity, doc, fn, tuple(domains), dict(params or {}))
@@ -65,32 +62,38 @@ def predicate(name: str, arity: int, doc: str, *, domains: tuple[str, ...] = ("d
     return deco
 
 
-def _load(domain: str | None) -> None:
-    for d, module in DOMAIN_MODULES.items():
-        if (domain is None or d == domain) and d not in _LOADED:
-            try:
-                importlib.import_module(module)
-            except ModuleNotFoundError as exc:  # the domain package is not there (yet)
-                if exc.name is None or not module.startswith(exc.name):
-                    raise
-            _LOADED.add(d)
+def _load(domain: str) -> None:
+    """Import the domain's predicate module (named by its backend) once."""
+    if domain in _LOADED:
+        return
+    from regen import domains
+
+    module = domains.backend_class(domain).predicates_module
+    if module:
+        importlib.import_module(module)
+    _LOADED.add(domain)
+
+
+def _table(domain: str) -> dict[str, PredicateSpec]:
+    """The library of one domain: the shared predicates, overridden by the domain's own."""
+    _load(domain)
+    return {**_REGISTRY[SHARED], **_REGISTRY.get(domain, {})}
 
 
 def list_predicates(domain: str | None = None) -> list[PredicateSpec]:
-    """The library of a domain (or of all domains), sorted by name."""
-    _load(domain)
-    tables = [_REGISTRY.get(domain, {})] if domain else list(_REGISTRY.values())
+    """The library of a domain (or of every registered domain), sorted by name."""
+    from regen import domains
+
     seen: dict[int, PredicateSpec] = {}
-    for table in tables:
-        for spec in table.values():
+    for d in [domain] if domain else domains.names():
+        for spec in _table(d).values():
             seen.setdefault(id(spec), spec)
     return sorted(seen.values(), key=lambda s: (s.name, s.domains))
 
 
 def get_predicate(name: str, domain: str) -> PredicateSpec:
     """The predicate ``name`` of ``domain``; ConfigError naming the library when unknown."""
-    _load(domain)
-    spec = _REGISTRY.get(domain, {}).get(name)
+    spec = _table(domain).get(name)
     if spec is None:
         known = ", ".join(s.name for s in list_predicates(domain))
         raise ConfigError(f"unknown predicate {name!r} for {domain}; the library has: {known}")

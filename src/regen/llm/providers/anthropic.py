@@ -9,31 +9,45 @@ from typing import Any
 import httpx
 
 from regen.errors import MissingAPIKeyError, ProviderResponseError
-from regen.llm.base import Completion, Message, Provider, RetryableError, Sampling, with_retries
-from regen.llm.providers.openai_compat import _retry_after
+from regen.llm.base import Completion, Message, Provider, Sampling, with_retries
+from regen.llm.providers.http import post_json, request_timeout, snippet, token_count
+from regen.llm.providers.keys import is_official, pick_key
 
 API_URL = "https://api.anthropic.com/v1/messages"
+OFFICIAL_KEY_VAR = "ANTHROPIC_API_KEY"  # sent only to API_URL's host
+CUSTOM_KEY_VAR = "REGEN_ANTHROPIC_API_KEY"  # sent only to a custom messages URL
 
 
 class AnthropicProvider(Provider):
-    """``anthropic:<model>``. Key from ``ANTHROPIC_API_KEY``."""
+    """``anthropic:<model>``. Messages URL from ``base_url`` or ``REGEN_ANTHROPIC_BASE_URL``
+    (the full URL of the messages endpoint; default: Anthropic's own API).
+
+    Keys go only to the service they belong to: Anthropic's API gets ``ANTHROPIC_API_KEY``
+    (required); any other URL gets ``REGEN_ANTHROPIC_API_KEY``, or no ``x-api-key`` header when
+    that is unset. An explicit ``api_key`` is sent wherever the URL points.
+
+    ``timeout`` [s] per request: the argument, else ``REGEN_LLM_TIMEOUT``, else 120; a request
+    that times out is tried ``attempts`` times in all.
+    """
 
     name = "anthropic"
 
     def __init__(self, model: str, *, api_key: str | None = None, base_url: str | None = None,
-                 timeout: float = 120.0, attempts: int = 4, base_delay: float = 0.5):
+                 timeout: float | None = None, attempts: int = 4, base_delay: float = 0.5):
         if not model:
             raise ProviderResponseError("name the model: anthropic:<model>")
         self.model = model
-        self._key = api_key or os.environ.get("ANTHROPIC_API_KEY")
-        if not self._key:
-            raise MissingAPIKeyError("anthropic: no API key. Set it in the environment: "
-                                     "export ANTHROPIC_API_KEY=... (or use --llm local)")
-        self.url = (base_url or os.environ.get("REGEN_ANTHROPIC_BASE_URL") or API_URL)
-        self.timeout = timeout
+        self.url = base_url or os.environ.get("REGEN_ANTHROPIC_BASE_URL") or API_URL
+        self.official = is_official(self.url, API_URL)
+        self._key = pick_key(api_key, self.url, official=API_URL,
+                             official_var=OFFICIAL_KEY_VAR, custom_var=CUSTOM_KEY_VAR)
+        if self._key.value is None and self.official:
+            raise MissingAPIKeyError(f"anthropic: no API key. Set it in the environment: "
+                                     f"export {OFFICIAL_KEY_VAR}=... (or use --llm local)")
+        self.timeout = request_timeout(timeout)
         self.attempts = attempts
         self.base_delay = base_delay
-        self._client = httpx.Client(timeout=timeout)
+        self._client = httpx.Client(timeout=self.timeout)
 
     def complete(self, messages: list[Message], *, schema: dict[str, Any] | None,
                  sampling: Sampling) -> Completion:
@@ -48,32 +62,38 @@ class AnthropicProvider(Provider):
         if schema is not None:
             body["tools"] = [{"name": "answer", "description": "Give the answer.", "input_schema": schema}]
             body["tool_choice"] = {"type": "tool", "name": "answer"}
-        headers = {"x-api-key": self._key or "", "anthropic-version": "2023-06-01"}
+        headers = {"anthropic-version": "2023-06-01"}
+        if self._key.value:
+            headers["x-api-key"] = self._key.value
 
         def once() -> Completion:
+            raw, data = post_json(self._client, self.url, body, headers, who=self._who,
+                                  timeout=self.timeout, refused=self._refused, retry_status=(429, 529))
             try:
-                resp = self._client.post(self.url, json=body, headers=headers)
-            except httpx.TimeoutException:
-                raise RetryableError(f"timeout after {self.timeout:.0f} s") from None
-            except httpx.TransportError as exc:
-                raise RetryableError(f"cannot reach {self.url} ({type(exc).__name__})") from None
-            if resp.status_code in (429, 529) or resp.status_code >= 500:
-                raise RetryableError(f"HTTP {resp.status_code}", _retry_after(resp))
-            if resp.status_code in (401, 403):
-                raise MissingAPIKeyError("Anthropic refused the API key; check ANTHROPIC_API_KEY")
-            if resp.status_code >= 400:
-                raise ProviderResponseError(f"Anthropic answered HTTP {resp.status_code}: {resp.text[:300]}")
-            data = resp.json()
-            text = ""
-            for block in data.get("content", []):
-                if block.get("type") == "tool_use":
-                    text = json.dumps(block.get("input", {}))
-                    break
-                if block.get("type") == "text":
-                    text += block.get("text", "")
-            usage = data.get("usage") or {}
-            return Completion(text=text, input_tokens=int(usage.get("input_tokens", 0)),
-                              output_tokens=int(usage.get("output_tokens", 0)))
+                text = ""
+                for block in data.get("content", []):
+                    if block.get("type") == "tool_use":
+                        text = json.dumps(block.get("input", {}))
+                        break
+                    if block.get("type") == "text":
+                        text += block.get("text", "")
+                usage = data.get("usage")
+            except (ValueError, AttributeError, TypeError, RecursionError):
+                raise ProviderResponseError(f"{self._who} sent a reply that is not a Messages API "
+                                            f"answer: {snippet(raw)}") from None
+            return Completion(text=text, input_tokens=token_count(usage, "input_tokens"),
+                              output_tokens=token_count(usage, "output_tokens"))
 
         return with_retries(once, what=f"{self.id} call", attempts=self.attempts,
                             base_delay=self.base_delay)
+
+    @property
+    def _who(self) -> str:
+        return "Anthropic" if self.official else self.url
+
+    def _refused(self, status: int) -> str:
+        if self._key.value:
+            return f"{self._who} refused the API key (HTTP {status}); check {self._key.source}"
+        return (f"{self.url} refused the request without an API key (HTTP {status}). If this "
+                f"server needs one, export {CUSTOM_KEY_VAR}=... ({OFFICIAL_KEY_VAR} is only sent "
+                f"to {API_URL})")

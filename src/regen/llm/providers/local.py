@@ -16,7 +16,14 @@ from typing import Any
 
 from regen.errors import DependencyNotInstalled, ModelFileError
 from regen.llm.base import Completion, Message, Provider, Sampling
-from regen.llm.model_files import DEFAULT_MODEL, MODELS, ensure_model, verify
+from regen.llm.model_files import (
+    DEFAULT_MODEL,
+    MODELS,
+    check_gguf,
+    ensure_model,
+    model_hint,
+    verify,
+)
 
 log = logging.getLogger(__name__)
 
@@ -38,8 +45,13 @@ def load_llama(path: Path, n_ctx: int = 4096) -> Any:
     with _LOAD_LOCK:
         if key not in _LOADED:
             start = time.perf_counter()
-            _LOADED[key] = llama_cpp.Llama(model_path=str(path), n_ctx=n_ctx, n_threads=_threads(),
-                                           verbose=False, seed=0)
+            try:
+                _LOADED[key] = llama_cpp.Llama(model_path=str(path), n_ctx=n_ctx,
+                                               n_threads=_threads(), verbose=False, seed=0)
+            except (ValueError, RuntimeError, OSError) as exc:  # llama.cpp: 'Failed to load model'
+                raise ModelFileError(f"local model {path} cannot be loaded by llama.cpp ({exc}); "
+                                     f"it may be truncated or of an unsupported kind: "
+                                     f"{model_hint()}") from None
             log.info("loaded %s in %.1f s", path.name, time.perf_counter() - start)
         return _LOADED[key]
 
@@ -48,17 +60,16 @@ class LocalProvider(Provider):
     name = "local"
     concurrent = False
 
-    def __init__(self, model: str = "", *, n_ctx: int = 4096):
+    def __init__(self, model: str = "", *, n_ctx: int = 4096, timeout: float | None = None):
+        # ``timeout`` is accepted so that one option fits every provider; an in-process call
+        # has no request to abandon, so it is not used
         model = model or DEFAULT_MODEL
         self.n_ctx = n_ctx
         if model in MODELS:
             self.model = model
             self._path: Path | None = None
         else:
-            path = Path(model).expanduser()
-            if not path.is_file():
-                raise ModelFileError(f"local model {model!r} is neither a known model "
-                                     f"({', '.join(sorted(MODELS))}) nor an existing .gguf file")
+            path = check_gguf(Path(model).expanduser())
             sha = os.environ.get("REGEN_LOCAL_SHA256")
             if sha:
                 verify(path, sha.strip().lower())

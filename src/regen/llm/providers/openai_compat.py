@@ -9,48 +9,53 @@ from typing import Any
 import httpx
 
 from regen.errors import MissingAPIKeyError, ProviderResponseError
-from regen.llm.base import Completion, Message, Provider, RetryableError, Sampling, with_retries
+from regen.llm.base import Completion, Message, Provider, Sampling, with_retries
+from regen.llm.providers.http import post_json, request_timeout, snippet, token_count
+from regen.llm.providers.keys import is_official, pick_key
 
 DEFAULT_BASE_URL = "https://api.openai.com/v1"
-
-
-def _retry_after(resp: httpx.Response) -> float | None:
-    value = resp.headers.get("retry-after")
-    try:
-        return float(value) if value is not None else None
-    except ValueError:
-        return None
+OFFICIAL_KEY_VAR = "OPENAI_API_KEY"  # sent only to DEFAULT_BASE_URL's host
+CUSTOM_KEY_VAR = "REGEN_OPENAI_API_KEY"  # sent only to a custom base URL
 
 
 class OpenAIProvider(Provider):
-    """``openai:<model>``. Key from ``OPENAI_API_KEY``; base URL from the argument,
-    ``REGEN_OPENAI_BASE_URL`` or ``OPENAI_BASE_URL``. A custom base URL may run without a key.
+    """``openai:<model>``. Base URL from the argument, ``REGEN_OPENAI_BASE_URL`` or
+    ``OPENAI_BASE_URL`` (default: OpenAI's own API).
+
+    Keys go only to the service they belong to: OpenAI's API gets ``OPENAI_API_KEY`` (required);
+    any other base URL gets ``REGEN_OPENAI_API_KEY``, or no Authorization header when that is
+    unset (local servers need none). An explicit ``api_key`` is sent wherever the URL points.
 
     ``schema_mode``: 'json_schema' (structured outputs), 'json_object' (JSON mode, the schema
     goes into the prompt) or 'none' (schema in the prompt only), for servers that lack one.
+
+    ``timeout`` [s] per request: the argument, else ``REGEN_LLM_TIMEOUT``, else 120; a request
+    that times out is tried ``attempts`` times in all.
     """
 
     name = "openai"
 
     def __init__(self, model: str, *, base_url: str | None = None, api_key: str | None = None,
-                 timeout: float = 120.0, attempts: int = 4, schema_mode: str = "json_schema",
+                 timeout: float | None = None, attempts: int = 4, schema_mode: str = "json_schema",
                  base_delay: float = 0.5):
         if not model:
             raise ProviderResponseError("name the model: openai:<model>, e.g. openai:gpt-4o-mini")
         self.model = model
         self.base_url = (base_url or os.environ.get("REGEN_OPENAI_BASE_URL")
                          or os.environ.get("OPENAI_BASE_URL") or DEFAULT_BASE_URL).rstrip("/")
-        key = api_key or os.environ.get("OPENAI_API_KEY")
-        if not key and self.base_url == DEFAULT_BASE_URL:
+        self.official = is_official(self.base_url, DEFAULT_BASE_URL)
+        key = pick_key(api_key, self.base_url, official=DEFAULT_BASE_URL,
+                       official_var=OFFICIAL_KEY_VAR, custom_var=CUSTOM_KEY_VAR)
+        if key.value is None and self.official:
             raise MissingAPIKeyError(
-                "openai: no API key. Set it in the environment: export OPENAI_API_KEY=sk-... "
+                f"openai: no API key. Set it in the environment: export {OFFICIAL_KEY_VAR}=sk-... "
                 "(or point REGEN_OPENAI_BASE_URL at an OpenAI-compatible server, or use --llm local)")
         self._key = key
-        self.timeout = timeout
+        self.timeout = request_timeout(timeout)
         self.attempts = attempts
         self.base_delay = base_delay
         self.schema_mode = schema_mode
-        self._client = httpx.Client(timeout=timeout)
+        self._client = httpx.Client(timeout=self.timeout)
 
     def _body(self, messages: list[Message], schema: dict[str, Any] | None,
               sampling: Sampling) -> dict[str, Any]:
@@ -75,33 +80,30 @@ class OpenAIProvider(Provider):
     def complete(self, messages: list[Message], *, schema: dict[str, Any] | None,
                  sampling: Sampling) -> Completion:
         url = f"{self.base_url}/chat/completions"
-        headers = {"Authorization": f"Bearer {self._key}"} if self._key else {}
+        headers = {"Authorization": f"Bearer {self._key.value}"} if self._key.value else {}
         body = self._body(messages, schema, sampling)
 
         def once() -> Completion:
+            raw, data = post_json(self._client, url, body, headers, who=self.base_url,
+                                  timeout=self.timeout, refused=self._refused)
             try:
-                resp = self._client.post(url, json=body, headers=headers)
-            except httpx.TimeoutException as exc:
-                raise RetryableError(f"timeout after {self.timeout:.0f} s ({type(exc).__name__})") from None
-            except httpx.TransportError as exc:
-                raise RetryableError(f"cannot reach {self.base_url} ({type(exc).__name__}: {exc})") from None
-            if resp.status_code == 429 or resp.status_code >= 500:
-                raise RetryableError(f"HTTP {resp.status_code}", _retry_after(resp))
-            if resp.status_code in (401, 403):
-                raise MissingAPIKeyError(f"{self.base_url} refused the API key (HTTP "
-                                         f"{resp.status_code}); check OPENAI_API_KEY")
-            if resp.status_code >= 400:
-                raise ProviderResponseError(f"{self.base_url} answered HTTP {resp.status_code}: "
-                                            f"{resp.text[:300]}")
-            try:
-                data = resp.json()
                 text = data["choices"][0]["message"]["content"] or ""
-            except (ValueError, KeyError, IndexError, TypeError):
+                if not isinstance(text, str):
+                    raise TypeError("content is not text")
+            except (KeyError, IndexError, TypeError):
                 raise ProviderResponseError(f"{self.base_url} sent a reply that is not a chat "
-                                            f"completion: {resp.text[:300]}") from None
-            usage = data.get("usage") or {}
-            return Completion(text=text, input_tokens=int(usage.get("prompt_tokens", 0) or 0),
-                              output_tokens=int(usage.get("completion_tokens", 0) or 0))
+                                            f"completion: {snippet(raw)}") from None
+            usage = data.get("usage")
+            return Completion(text=text, input_tokens=token_count(usage, "prompt_tokens"),
+                              output_tokens=token_count(usage, "completion_tokens"))
 
         return with_retries(once, what=f"{self.id} call", attempts=self.attempts,
                             base_delay=self.base_delay)
+
+    def _refused(self, status: int) -> str:
+        if self._key.value:
+            return (f"{self.base_url} refused the API key (HTTP {status}); check "
+                    f"{self._key.source}")
+        return (f"{self.base_url} refused the request without an API key (HTTP {status}). If "
+                f"this server needs one, export {CUSTOM_KEY_VAR}=... ({OFFICIAL_KEY_VAR} is "
+                f"only sent to {DEFAULT_BASE_URL})")

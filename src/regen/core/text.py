@@ -1,0 +1,37 @@
+"""Text hygiene, in one place: the characters no output of the toolkit may carry.
+
+C0 controls but tab, newline and carriage return; DEL and C1 controls; lone surrogates (half an
+emoji from a ``\\ud83d`` JSON escape). HTML forbids the controls, terminals obey them (moving the
+cursor, clearing the screen), and a lone surrogate cannot be written as UTF-8 at all: one in a
+narrative would cost a whole page or file.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+CONTROL = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f]")  # Cc but tab, newline, carriage return
+SURROGATE = re.compile("[\ud800-\udfff]")  # in a str these are always unpaired
+UNSAFE = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f\ud800-\udfff]")  # CONTROL or SURROGATE
+
+
+def clean(text: str) -> str:
+    """``text`` without unsafe characters."""
+    return UNSAFE.sub("", text)
+
+
+def clean_data(value: Any) -> Any:
+    """Every string in JSON-like ``value`` (keys included) without unsafe characters."""
+    if isinstance(value, str):
+        return clean(value)
+    if isinstance(value, dict):
+        return {clean_data(k): clean_data(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [clean_data(v) for v in value]
+    return value
+
+
+def escaped(text: str) -> str:
+    """``text`` with its unsafe characters written as ``\\uXXXX`` escapes, for quoting in messages."""
+    return UNSAFE.sub(lambda m: f"\\u{ord(m.group()):04x}", text)

@@ -1,0 +1,49 @@
+"""The actors around the ego: what grounding chose for each, and facts about their assets.
+
+A :class:`RoleChoice` is one actor as grounding decided it (asset, motion primitive, start
+location, speed class, property values); an :class:`ActorSpec` adds the asset's size, which the
+solver and the planner need. What a primitive does lives in :mod:`regen.driving.primitives`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+# Assets that walk: they stand on sidewalks, use the walking speed classes, and are Scenic
+# Pedestrians.
+PEDESTRIAN_ASSETS = frozenset({"adult", "child", "pedestrian_group"})
+# Static objects that are vehicles: a Scenic Car, parked half on the curb.
+PARKED_ASSETS = frozenset({"parked_car"})
+
+
+@dataclass(frozen=True, kw_only=True)
+class RoleChoice:
+    """One actor as grounding decided it."""
+
+    name: str
+    asset: str
+    primitive: str  # motion primitive ('' or 'stationary' for lights and sensors)
+    location: str  # start location, relative to the ego
+    speed_class: str  # 'slow', 'moderate' or 'fast'
+    properties: dict[str, str] = field(default_factory=dict)
+
+
+@dataclass(frozen=True, kw_only=True)
+class ActorSpec(RoleChoice):
+    """What the solver and the planner need about one non-ego actor."""
+
+    size: tuple[float, float, float]  # length, width, height [m]
+
+
+def scenic_class(asset: str, kind: str) -> str:
+    """The Scenic class of an asset of database ``kind`` ('' for sensors: not Scenic objects)."""
+    if kind == "sensor":
+        return ""
+    if asset in PEDESTRIAN_ASSETS:
+        return "Pedestrian"
+    if kind == "object" and asset not in PARKED_ASSETS:
+        return "Object"
+    return "Car"
+
+
+__all__ = ["PARKED_ASSETS", "PEDESTRIAN_ASSETS", "ActorSpec", "RoleChoice", "scenic_class"]

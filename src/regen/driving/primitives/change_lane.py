@@ -1,0 +1,31 @@
+"""change_lane: a slower vehicle ahead in the next lane changes into the ego's lane."""
+
+from __future__ import annotations
+
+from regen.driving.actors import ActorSpec, RoleChoice
+from regen.driving.cpsat import PlacementModel
+from regen.driving.ego import EgoTemplate
+from regen.driving.primitives import _lanes
+from regen.driving.primitives.base import RuleStates, VehiclePrimitive, pred
+
+
+def _constrain(m: PlacementModel, a: ActorSpec, speeds: tuple[float, float]) -> None:
+    e = m.ego
+    s, v = m.start(a, speeds)
+    _lanes.ahead_in_next_lane(m, a, _lanes.s_at_event(m, a, s, v))
+    t = m.trigger(a)
+    m.at_least(a, "changes lane 1 to 3 s before the ego's event", t, e.t_event - 3.0)
+    m.at_most(a, "changes lane at least 1 s before the ego's event", t, e.t_event - 1.0)
+    m.at_most(a, f"is slower than the ego (v <= {e.speed_event - 2:.0f} m/s)", v, e.speed_event - 2.0)
+    m.at_least(a, "starts ahead of the ego", s, m.ego_s(0.0) + m.half(a) + 5.0)
+
+
+def _rule_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:
+    a, e = r.name, "ego"
+    return RuleStates(initial=("ahead_in_next_lane", [pred("ahead_of", a, e), pred("adjacent_lane", a, e)]),
+                      cause=("in_ego_lane", [pred("in_front", a, e, distance=40.0)]))
+
+
+SPEC = VehiclePrimitive(name="change_lane", starts=("ahead_adjacent_lane",), leaves_line=True,
+                        add_constraints=_constrain, build_plan=_lanes.lane_change_plan,
+                        rule_states=_rule_states)

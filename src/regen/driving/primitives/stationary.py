@@ -1,0 +1,95 @@
+"""stationary: the actor stands where it starts (a parked car may open its door)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from regen.driving.actors import ActorSpec, RoleChoice
+from regen.driving.cpsat import DM, PlacementModel
+from regen.driving.ego import JUNCTION_CX, EgoTemplate
+from regen.driving.locations import LOCATIONS
+from regen.driving.maps import JUNCTION_RADIUS
+from regen.driving.plan import ActorPlan
+from regen.driving.primitives.base import Placed, Primitive, RuleStates, pred
+
+
+def _in_the_ego_path(m: PlacementModel, a: ActorSpec, s: Any) -> None:
+    e, half = m.ego, m.half(a)
+    lo = e.s_end + half + 1.0
+    hi = e.s_end + half + (12.0 if e.stops else 30.0)
+    m.at_least(a, f"stands in the ego's lane ahead of where the ego ends (s >= {lo:.1f} m)", s, lo)
+    m.at_most(a, f"stands close enough ahead to matter (s <= {hi:.1f} m)", s, hi)
+
+
+def _near_the_event(m: PlacementModel, a: ActorSpec, s: Any) -> None:
+    e = m.ego
+    ref = e.s_end if e.stops else e.s_event
+    m.at_least(a, "stands ahead of the ego's event position", s, ref + m.half(a) - 4.0)
+    m.at_most(a, "stands within 30 m of it", s, ref + 30.0)
+
+
+def _behind_the_start(m: PlacementModel, a: ActorSpec, s: Any) -> None:
+    m.at_most(a, "stands behind the ego's start", s, m.ego_s(0.0) - m.half(a) - 3.0)
+    m.at_least(a, "stands within 40 m behind the ego's start", s, m.ego_s(0.0) - 40.0)
+
+
+def _anywhere(m: PlacementModel, a: ActorSpec, s: Any) -> None:
+    """A fixed place (the junction corner): nothing to solve."""
+
+
+# start location -> where along the ego's frame it stands (in the order offered)
+_PLACES: dict[str, Callable[[PlacementModel, ActorSpec, Any], None]] = {
+    "ahead_same_lane": _in_the_ego_path,
+    "behind_same_lane": _behind_the_start,
+    "ahead_adjacent_lane": _near_the_event,
+    "roadside_ahead": _near_the_event,
+    "roadside_opposite_ahead": _near_the_event,
+    "crosswalk_ahead": _in_the_ego_path,
+    "junction_corner": _anywhere,
+}
+
+
+def _constrain(m: PlacementModel, a: ActorSpec, speeds: tuple[float, float]) -> None:
+    s, v = m.start(a, speeds)
+    m.m.Add(v == int(speeds[0] * DM))  # unused for stationary actors; pin it
+    if a.properties.get("door") == "opens":
+        t = m.trigger(a)
+        te = m.ego.t_event
+        m.at_least(a, "opens its door 0.3 to 2.5 s before the ego's event", t, te - 2.5)
+        m.at_most(a, "opens its door at least 0.3 s before the ego's event", t, te - 0.3)
+    _PLACES.get(a.location, _anywhere)(m, a, s)
+
+
+def _plan(placed: Placed) -> ActorPlan:
+    loc = LOCATIONS.get(placed.actor.location)
+    if loc is not None and loc.needs_junction:  # at a junction it stands at the corner
+        w = placed.ego.frame.lane_width
+        return placed.actor_plan(x=JUNCTION_CX - JUNCTION_RADIUS - 1.0, y=-(w + 1.5), heading=0.0)
+    fr = placed.ego.frame
+    x, y = fr.point(placed.params.get("s", 0.0), placed.lateral)
+    return placed.actor_plan(x=x, y=y, heading=fr.heading)
+
+
+def _rule_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:
+    a, e = r.name, "ego"
+    if r.location == "behind_same_lane":
+        return RuleStates(initial=("behind_ego", [pred("behind", a, e)]))
+    if r.properties.get("door") == "opens":
+        return RuleStates(
+            initial=("door_closed", [pred("door_open", a, negate=True), pred("ahead_of", a, e)]),
+            cause=("door_open", [pred("door_open", a), pred("ahead_of", a, e)]))
+    return RuleStates(initial=("ahead_of_ego", [pred("ahead_of", a, e), pred("stopped", a)]),
+                      final=("still_ahead", [pred("ahead_of", a, e)]))
+
+
+SPEC = Primitive(
+    name="stationary",
+    users=frozenset({"vehicles", "pedestrians", "static objects"}),
+    starts=tuple(_PLACES),
+    speeds=None,
+    moves=False,
+    add_constraints=_constrain,
+    build_plan=_plan,
+    rule_states=_rule_states,
+)

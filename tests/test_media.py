@@ -1,0 +1,99 @@
+"""The shared media writer: which samples become frames, how long each shows, strips and files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from regen import media
+from regen.errors import ConfigError
+
+RED, BLUE = (230, 20, 20), (20, 90, 255)
+
+
+def _tile(color, size=(40, 30)) -> Image.Image:
+    return Image.new("RGB", size, color)
+
+
+def test_spread_includes_first_and_last_and_never_repeats():
+    assert media.spread(101, 5) == [0, 25, 50, 75, 100]
+    assert media.spread(3, 16) == [0, 1, 2]  # fewer samples than frames asked for
+    assert media.spread(10, 1) == [0]
+
+
+def test_real_time_steps_follow_fps_and_keep_the_last_sample():
+    times = np.arange(0, 4.01, 0.05)  # 81 samples, dt = 0.05 s
+    steps = media.animation_steps(times, media.AnimationSettings(fps=10))
+    assert steps[:3] == [0, 2, 4] and steps[-1] == 80  # every second sample: 10 per second
+    assert media.frame_ms(times, steps, media.AnimationSettings(fps=10)) == 100
+
+
+def test_real_time_steps_are_capped_and_slow_down_instead():
+    times = np.arange(0, 30.01, 0.1)  # 301 samples
+    settings = media.AnimationSettings(fps=10, max_frames=60)
+    steps = media.animation_steps(times, settings)
+    assert len(steps) <= 61 and steps[-1] == 300
+    assert media.frame_ms(times, steps, settings) == 600  # 6 samples a frame, still real time
+
+
+def test_spread_steps_with_a_fixed_frame_time():
+    settings = media.AnimationSettings(max_frames=16, fps=None, frame_ms=150)
+    steps = media.animation_steps(list(range(200)), settings)
+    assert len(steps) == 16 and steps[0] == 0 and steps[-1] == 199
+    assert media.frame_ms(list(range(200)), steps, settings) == 150
+
+
+def test_frame_time_has_a_floor_and_a_single_frame_shows_a_second():
+    fast = np.arange(0, 1, 0.001)
+    assert media.frame_ms(fast, [0, 1, 2], media.AnimationSettings()) == media.MIN_FRAME_MS
+    assert media.frame_ms([0.0], [0], media.AnimationSettings()) == media.SINGLE_FRAME_MS
+
+
+def test_strip_lays_tiles_side_by_side_with_gaps_and_a_top_band():
+    out = media.strip([_tile(RED), _tile(BLUE)], gap_px=4, top_px=10)
+    assert out.size == (2 * 40 + 4, 30 + 10)
+    px = np.asarray(out)
+    assert tuple(px[0, 0]) == media.WHITE  # the band is left for the caller's caption
+    assert tuple(px[20, 41]) == media.WHITE  # the gap
+    assert tuple(px[20, 5]) == RED and tuple(px[20, 50]) == BLUE
+
+
+def test_strip_of_nothing_is_a_clear_error():
+    with pytest.raises(ConfigError, match="at least one tile"):
+        media.strip([])
+
+
+def test_gif_from_a_generator_with_a_shared_palette_keeps_exact_colors(tmp_path):
+    pal = Image.new("P", (1, 1))
+    pal.putpalette([*RED, *BLUE, *media.WHITE] + [0] * (768 - 9))
+    path = media.write_gif(tmp_path / "sub" / "a.gif", (_tile(c) for c in (RED, BLUE, RED)), 120,
+                           palette=pal)
+    assert path == tmp_path / "sub" / "a.gif"
+    im = Image.open(path)
+    assert im.n_frames == 3 and im.info["duration"] == 120 and im.info["loop"] == 0
+    colors = []
+    for k in range(3):
+        im.seek(k)
+        colors.append(tuple(np.asarray(im.convert("RGB"))[5, 5]))
+    assert colors == [RED, BLUE, RED]
+    assert [p.name for p in path.parent.iterdir()] == ["a.gif"]  # no temporary file left
+
+
+def test_gif_without_frames_is_a_clear_error(tmp_path):
+    with pytest.raises(ConfigError, match="at least one frame"):
+        media.write_gif(tmp_path / "a.gif", [], 100)
+    assert not (tmp_path / "a.gif").exists()
+
+
+def test_png_round_trips(tmp_path):
+    img = media.strip([_tile(RED), _tile(BLUE)])
+    path = media.write_png(tmp_path / "k.png", img)
+    assert np.array_equal(np.asarray(Image.open(path).convert("RGB")), np.asarray(img))
+
+
+def test_the_writer_names_no_domain():
+    text = Path(media.__file__).read_text().lower()
+    assert "driving" not in text and "manipulation" not in text
