@@ -13,14 +13,11 @@ from __future__ import annotations
 import argparse
 import statistics
 import tempfile
-import time
 from pathlib import Path
 
 from regen.core import Behavior, CausePath, PathEntity
 from regen.manipulation.behaviors import BEHAVIORS
-from regen.manipulation.grounding import ground_path
-from regen.manipulation.simulate import rollout
-from regen.verify import check_fsm
+from regen.pipeline import run_path
 
 # three contexts per behavior: (cause, context assets)
 CONTEXTS: dict[str, list[tuple[str, list[str]]]] = {
@@ -63,27 +60,21 @@ def main() -> None:
             path = CausePath(behavior=Behavior(text=b.text, domain="manipulation", reward=bid),
                              events=[cause, b.text],
                              entities=[PathEntity(asset=a, event=cause) for a in assets])
-            t0 = time.perf_counter()
-            sc = ground_path(path, seed=seed)
-            t_ground = time.perf_counter() - t0
-            res = rollout(sc)
-            verdict = check_fsm(sc, res.trace)
-            sim_s = res.physics_steps / 240.0
-            sps = res.physics_steps / res.timings["rollout"]
-            row = {"behavior": bid, "context": cause, "verdict": verdict.status,
-                   "placement": sc.solver.wall_time, "ground": t_ground, "build": res.timings["build"],
-                   "rollout": res.timings["rollout"], "sim_s": sim_s, "steps_per_s": sps}
+            out = Path(tempfile.mkdtemp(prefix=f"regen-{bid}-"))
+            res = run_path(path, out, seed=seed, pictures=args.render and seed == 0)  # the main job's stages
+            steps = res.trace().meta["physics_steps"]
+            t = res.timings
+            sim_s = steps / 240.0
+            sps = steps / t["rollout"]
+            row = {"behavior": bid, "context": cause, "verdict": res.verdict.status,
+                   "placement": t["solve"], "ground": t["ground"], "build": t["build"],
+                   "rollout": t["rollout"], "sim_s": sim_s, "steps_per_s": sps}
             rows.append(row)
-            print(f"{bid:22s} {cause[:32]:32s} {verdict.status:15s} placement {row['placement'] * 1e3:6.1f} ms"
+            print(f"{bid:22s} {cause[:32]:32s} {res.verdict.status:15s} placement {row['placement'] * 1e3:6.1f} ms"
                   f"  build {row['build']:.2f} s  rollout {row['rollout']:.2f} s ({sim_s:.1f} s sim,"
                   f" {sps:,.0f} steps/s)", flush=True)
-            if args.render and seed == 0:
-                from regen.manipulation.render import render_run
-
-                t1 = time.perf_counter()
-                out = Path(tempfile.mkdtemp(prefix=f"regen-{bid}-"))
-                render_run(sc, res.trace, verdict, out)
-                print(f"{'':22s} render strip+GIF {time.perf_counter() - t1:.2f} s -> {out}")
+            if "render" in t:
+                print(f"{'':22s} render strip+GIF {t['render']:.2f} s -> {out}")
     ok = sum(r["verdict"] == "verified" for r in rows)
     per_behavior: dict[str, int] = {}
     for r in rows:

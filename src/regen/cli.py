@@ -297,8 +297,11 @@ def generate_cmd(
     if log == "jsonl":
         return
     relaxed = sum(o.verdict.status == "verified_after_relaxation" for o in result.outcomes)
+    ruled = sum(bool(o.verdict.fallbacks) for o in result.outcomes if o.verdict.feasible)
+    notes = ([f"{relaxed} after relaxing their FSM"] if relaxed else []) + (
+        [f"{ruled} with parts written by rules"] if ruled else [])
     console.print(f"[bold]{result.feasible}/{len(result.outcomes)} scenarios feasible[/]"
-                  + (f" ({relaxed} after relaxing their FSM)" if relaxed else "")
+                  + (f" ({'; '.join(notes)})" if notes else "")
                   + f" ({escape(result.manifest.status)}); model: "
                   f"{result.manifest.usage_last.get('total', {}).get('calls', 0)} calls")
     for o in result.outcomes:

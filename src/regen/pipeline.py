@@ -414,7 +414,7 @@ def _finish(run: RunFolder, manifest: RunManifest, outcomes: list[ScenarioOutcom
 
     t0 = time.perf_counter()
     try:
-        write_report(run.path)
+        write_report(run.path, manifest=manifest.model_dump(mode="json"))
     except Exception as exc:  # the report must never cost the run; say so where users look
         log.warning("report failed: %s", exc, exc_info=True)
         manifest.message = (manifest.message + "; " if manifest.message else "") + f"report failed: {exc}"

@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import pytest
 
-from regen.core import Behavior, CausePath, PathEntity
+from regen.core import Behavior, CausePath, PathEntity, Verdict
 from regen.manipulation.behaviors import BEHAVIORS
-from regen.verify import check_fsm
+from regen.pipeline import ground_stage, run_path, simulate_stage
+from regen.runfolder import ScenarioFolder
 
 pytest.importorskip("pybullet")
 
-from regen.manipulation.grounding import ground_path  # noqa: E402
-from regen.manipulation.simulate import rollout  # noqa: E402
+from regen.manipulation.backend import ManipulationBackend  # noqa: E402
 
 CONTEXTS = {
     "open_door": [["the pet wants to come in"], ["pet"]],
@@ -29,19 +29,19 @@ CONTEXTS = {
 }
 
 
-def _run(bid: str, events: list[str], assets: list[str], seed: int):
+def _run(bid: str, events: list[str], assets: list[str], seed: int, folder):
+    """The main job's stages on one hand-written manipulation chain (rule-based grounding)."""
     b = BEHAVIORS[bid]
     path = CausePath(behavior=Behavior(text=b.text, domain="manipulation", reward=bid),
                      events=[*events, b.text], entities=[PathEntity(asset=a, event=events[0]) for a in assets])
-    sc = ground_path(path, seed=seed)
-    res = rollout(sc)
-    return sc, res.trace, check_fsm(sc, res.trace)
+    out = run_path(path, folder, seed=seed, pictures=False)
+    return out.scenario(), out.trace(), out.verdict
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("bid", sorted(CONTEXTS))
-def test_behavior_verifies_in_its_context(bid):
-    sc, trace, verdict = _run(bid, *CONTEXTS[bid], seed=0)
+def test_behavior_verifies_in_its_context(bid, tmp_path):
+    sc, trace, verdict = _run(bid, *CONTEXTS[bid], seed=0, folder=tmp_path / bid)
     assert verdict.status == "verified", verdict.reason
     # every context object is where its relation says, at the start and at the end
     for name, p in sc.parameters.items():
@@ -51,28 +51,34 @@ def test_behavior_verifies_in_its_context(bid):
 
 
 @pytest.mark.slow
-def test_door_angle_reached_and_pet_outside_in_three_contexts():
+def test_door_angle_reached_and_pet_outside_in_three_contexts(tmp_path):
     contexts = [(["the pet wants to come in"], ["pet"]), (["a guest rings the bell"], ["adult", "plant"]),
                 (["the room is stuffy"], ["child", "book"])]
     for seed, (events, assets) in enumerate(contexts):
-        sc, trace, verdict = _run("open_door", events, assets, seed)
+        sc, trace, verdict = _run("open_door", events, assets, seed, tmp_path / f"door{seed}")
         assert verdict.status == "verified", verdict.reason
         angle = trace.actors["door1"].states["joint_position"]
         assert max(angle) >= 0.35 * 1.6 and angle[0] < 0.05  # [rad] closed, then opened
     wall_back = trace.actors["door1"].x[0] + trace.actors["door1"].length / 2
-    sc, trace, _ = _run("open_door", *contexts[0], seed=0)
+    sc, trace, _ = _run("open_door", *contexts[0], seed=0, folder=tmp_path / "door-again")
     pet = trace.actors["pet1"]
     assert pet.x[0] - pet.length / 2 >= wall_back - 0.03
 
 
 @pytest.mark.slow
-def test_failed_behavior_gives_a_verdict_with_the_stage():
+def test_failed_behavior_gives_a_verdict_with_the_stage(tmp_path):
     # a window that starts closed cannot be 'closed by the robot' past stage 1 (initial open)
     b = BEHAVIORS["close_window"]
     path = CausePath(behavior=Behavior(text=b.text, domain="manipulation", reward=b.id),
                      events=["rain", b.text], entities=[])
-    sc = ground_path(path)
-    sc.parameters["window1"]["fraction"] = 0.0
-    res = rollout(sc)
-    verdict = check_fsm(sc, res.trace)
+
+    class ClosedWindow(ManipulationBackend):
+        def ground(self, path, llm, *, seed=0):
+            sc = super().ground(path, llm, seed=seed)
+            sc.parameters["window1"]["fraction"] = 0.0
+            return sc
+
+    folder = ScenarioFolder(tmp_path / "window")
+    assert ground_stage(ClosedWindow(), path, None, folder) is None
+    verdict = Verdict.model_validate(simulate_stage("manipulation", str(folder.path), False)["verdict"])
     assert verdict.status == "fsm_incomplete" and verdict.first_unmet_stage == 1

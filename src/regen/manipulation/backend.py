@@ -56,7 +56,9 @@ class ManipulationBackend(DomainBackend):
         result = rollout(scenario)
         timings = dict(result.timings)
         timings["placement"] = scenario.solver.wall_time
-        return SimulationOutput(trace=result.trace, timings=timings)
+        trace = result.trace.model_copy(update={"meta": {**result.trace.meta,
+                                                         "physics_steps": result.physics_steps}})
+        return SimulationOutput(trace=trace, timings=timings)
 
     def render(self, scenario: Scenario, trace: Trace, verdict: Verdict, out_dir: Path) -> dict[str, Path]:
         from regen.manipulation.render import render_run

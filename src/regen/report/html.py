@@ -194,7 +194,7 @@ def render_report(view: RunView) -> str:
     )
 
 
-def write_report(run_dir: Path) -> Path:
+def write_report(run_dir: Path, manifest: dict[str, Any] | None = None) -> Path:
     """Write ``run_dir/report.html`` from what is in the run folder; returns its path.
 
     Missing or unreadable files inside the folder show as such in the page; only a ``run_dir``
@@ -203,7 +203,7 @@ def write_report(run_dir: Path) -> Path:
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
         raise ConfigError(f"no run folder at {run_dir}: pass the --out folder of 'regen generate'")
-    html = render_report(load_run(run_dir))
+    html = render_report(load_run(run_dir, manifest=manifest))
     out = atomic_write_text(run_dir / REPORT_NAME, html)
     log.info("wrote %s", out)
     return out

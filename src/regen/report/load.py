@@ -19,7 +19,7 @@ from regen.core.graph import CausePath, ScenarioGraph
 from regen.core.scenario import Scenario
 from regen.core.verdict import Verdict
 from regen.domains import ANIMATION, KEYFRAMES, ReportHints
-from regen.runfolder import RunFolder, ScenarioFolder, read_json, read_model, read_text
+from regen.runfolder import Loaded, RunFolder, ScenarioFolder, read_json, read_model, read_text
 
 log = logging.getLogger(__name__)
 
@@ -185,16 +185,19 @@ def _hints(domain: str | None) -> ReportHints:
         return ReportHints()
 
 
-def load_run(run_dir: Path) -> RunView:
+def load_run(run_dir: Path, manifest: dict[str, Any] | None = None) -> RunView:
     """Read a run folder (see docs/run-folder.md) into a :class:`RunView`; never raises for
-    missing or broken files inside it."""
+    missing or broken files inside it. ``manifest`` stands in for run.json (the pipeline
+    passes the finished one: run.json says 'done' only after the report is written)."""
     run = RunFolder(run_dir)
     view = RunView(run_dir=run.path)
-    raw = run.read_manifest_raw()
+    raw = Loaded(manifest) if manifest is not None else run.read_manifest_raw()
     view.run, view.run_problem = raw.value, raw.problem
     graph = read_model(run / run.GRAPH, ScenarioGraph)
     view.graph, view.graph_problem = graph.value, graph.problem
     behavior = read_model(run / run.MANIFEST, Behavior, key="behavior")
+    if manifest is not None and isinstance(manifest.get("behavior"), dict):
+        behavior = Loaded(Behavior.model_validate(manifest["behavior"]))
     if behavior.ok:
         view.behavior = behavior.value
     elif view.graph is not None:  # the graph carries the behavior too
