@@ -184,14 +184,10 @@ def database(name_or_file: str | Path) -> AssetDatabase:
     key = str(name_or_file)
     if key in _REGISTRY:
         return make(key).database()
-    path = Path(key)
-    if path.is_dir():
-        raise ConfigError(f"{key!r} is a folder: give a domain ({', '.join(names())}) or the path "
-                          "of an asset database .json file")
-    if not path.is_file():
+    if not Path(key).exists():
         raise ConfigError(f"{key!r} is neither a domain ({', '.join(names())}) nor an existing "
                           "file: give a domain or the path of an asset database .json file")
-    return load_database(path)
+    return load_database(key)  # a folder or a bad file: its own message says what to give
 
 
 def make_behavior(text: str, domain: str, **fields: object) -> Behavior:

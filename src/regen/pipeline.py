@@ -278,8 +278,48 @@ def generate(behavior: Behavior, out: Path, *, settings: RunSettings | None = No
         run.unlock()
 
 
+class _Interrupts:
+    """Ctrl-C that is never lost: Python raises KeyboardInterrupt wherever the main thread is,
+    and one that lands in a finalizer (simulators run many generators) is only printed as
+    'Exception ignored'. The handler also sets a flag, and the pipeline checks it between steps."""
+
+    def __init__(self) -> None:
+        self.seen = False
+        self._old: Any = None
+
+    def _handler(self, signum: int, frame: Any) -> None:
+        self.seen = True
+        raise KeyboardInterrupt
+
+    def __enter__(self) -> _Interrupts:
+        import signal
+        import threading
+
+        if threading.current_thread() is threading.main_thread() and \
+                signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+            self._old = signal.signal(signal.SIGINT, self._handler)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        import signal
+
+        if self._old is not None:
+            signal.signal(signal.SIGINT, self._old)
+
+    def check(self) -> None:
+        if self.seen:
+            raise KeyboardInterrupt
+
+
 def _run(run: RunFolder, manifest: RunManifest, backend: DomainBackend, settings: RunSettings,
          llm: LLM | None, replay: bool, on_event: Callable[[Event], None] | None) -> RunResult:
+    with _Interrupts() as interrupts:
+        return _stages(run, manifest, backend, settings, llm, replay, on_event, interrupts)
+
+
+def _stages(run: RunFolder, manifest: RunManifest, backend: DomainBackend, settings: RunSettings,
+            llm: LLM | None, replay: bool, on_event: Callable[[Event], None] | None,
+            interrupts: _Interrupts) -> RunResult:
     run.write_manifest(manifest)
     started = time.perf_counter()
     events = open(run / run.EVENTS, "a", encoding="utf-8")
@@ -291,6 +331,7 @@ def _run(run: RunFolder, manifest: RunManifest, backend: DomainBackend, settings
         if on_event:
             on_event(ev)
 
+    own_llm = llm is None  # made here: closed here (its cache file is the run's)
     if llm is None:
         llm = LLM(settings.llm, cache=run.cache_path, replay=replay, timeout=settings.llm_timeout,
                   on_call=lambda c: emit("llm_call", purpose=c.purpose, cached=c.cached,
@@ -312,6 +353,7 @@ def _run(run: RunFolder, manifest: RunManifest, backend: DomainBackend, settings
                                                   emit("graph", step=what, nodes=len(g.nodes))))
         if graph.stop_reason and "interrupted" in graph.stop_reason:
             raise KeyboardInterrupt
+        interrupts.check()
         save_graph(graph, run.path, pictures=settings.pictures)
         timed("expand", t0)
         paths = select_paths(graph.paths(), settings.max_scenarios)
@@ -336,6 +378,7 @@ def _run(run: RunFolder, manifest: RunManifest, backend: DomainBackend, settings
                 continue
             emit("grounding", name=name)
             verdict = ground_stage(backend, path, llm, folder, seed=settings.seed + i)
+            interrupts.check()
             if verdict is None:
                 pending.append(name)
             else:
@@ -354,6 +397,7 @@ def _run(run: RunFolder, manifest: RunManifest, backend: DomainBackend, settings
                         for name in pending}
                 for name, fut in futs.items():
                     _collect(outcomes, name, dirs[name], fut.result(), emit)
+                    interrupts.check()
             except BaseException:
                 pool.shutdown(wait=True, cancel_futures=True)  # running scenarios finish and are kept
                 raise
@@ -363,7 +407,9 @@ def _run(run: RunFolder, manifest: RunManifest, backend: DomainBackend, settings
                 emit("simulating", name=name)
                 _collect(outcomes, name, dirs[name], simulate_stage(behavior.domain, dirs[name], settings.pictures),
                          emit)
+                interrupts.check()
         timed("simulate", t0)
+        interrupts.check()
         manifest.status = "done"
     except KeyboardInterrupt:
         manifest.status = "interrupted"
@@ -384,6 +430,8 @@ def _run(run: RunFolder, manifest: RunManifest, backend: DomainBackend, settings
         else:
             run.write_manifest(manifest)
         events.close()
+        if own_llm:
+            llm.cache.close()
     return RunResult(run.path, manifest, graph, outcomes)
 
 

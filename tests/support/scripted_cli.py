@@ -21,11 +21,11 @@ from regen.llm import registry  # noqa: E402
 from regen.llm.testing import FunctionProvider  # noqa: E402
 
 STOP = "the ego-vehicle stops abruptly while driving forward"
-CAUSES = ["a child runs across the road", "an ambulance approaches from behind"]
+CAUSES = ["a child runs across the road", "a parked car opens its door"]
 MODEL = ScriptedModel(causes={STOP: CAUSES},
-                      entities={CAUSES[0]: ["child"], CAUSES[1]: ["ambulance"]},
-                      choose={"behavior": ["cross_the_road", "drive_forward"], "siren": ["on"],
-                              "start_location": ["roadside_ahead", "behind_adjacent_lane"]},
+                      entities={CAUSES[0]: ["child"], CAUSES[1]: ["parked_car"]},
+                      choose={"behavior": ["cross_the_road"], "door": ["opens"],
+                              "start_location": ["roadside_ahead"]},
                       otherwise="not json")
 
 

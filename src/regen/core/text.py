@@ -9,6 +9,7 @@ narrative would cost a whole page or file.
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from typing import Any
 
 CONTROL = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f]")  # Cc but tab, newline, carriage return
@@ -21,15 +22,20 @@ def clean(text: str) -> str:
     return UNSAFE.sub("", text)
 
 
+def map_strings(value: Any, fn: Callable[[str], str]) -> Any:
+    """JSON-like ``value`` with ``fn`` applied to every string in it, keys included."""
+    if isinstance(value, str):
+        return fn(value)
+    if isinstance(value, dict):
+        return {map_strings(k, fn): map_strings(v, fn) for k, v in value.items()}
+    if isinstance(value, list):
+        return [map_strings(v, fn) for v in value]
+    return value
+
+
 def clean_data(value: Any) -> Any:
     """Every string in JSON-like ``value`` (keys included) without unsafe characters."""
-    if isinstance(value, str):
-        return clean(value)
-    if isinstance(value, dict):
-        return {clean_data(k): clean_data(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [clean_data(v) for v in value]
-    return value
+    return map_strings(value, clean)
 
 
 def escaped(text: str) -> str:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from regen.core.text import CONTROL, SURROGATE
+from regen.core.text import CONTROL, SURROGATE, map_strings
 
 #: Longest model-written string (a reason, label, narrative, name) [characters]; longer ones are
 #: cut to this length, ending in an ellipsis. Labels have tighter limits in their answer schemas.
@@ -41,13 +41,7 @@ def clean_value(value: Any) -> Any:
     """A parsed JSON answer with every string (keys too) passed through :func:`clean_string`.
 
     The nesting is bounded by :func:`regen.llm.json_extract.extract_json`."""
-    if isinstance(value, str):
-        return clean_string(value)
-    if isinstance(value, dict):
-        return {clean_string(k): clean_value(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [clean_value(v) for v in value]
-    return value
+    return map_strings(value, clean_string)
 
 
 def shorten(text: str, limit: int) -> str:
