@@ -10,7 +10,9 @@ from typing import Annotated
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 
+from regen.core.text import clean
 from regen.errors import RegenError
 from regen.evaluation.edges import bundled_edge_examples, model_judge
 from regen.evaluation.evaluate import EvalSettings, evaluate
@@ -67,7 +69,7 @@ def eval_command(
                               judge_for_trial=judge_for_trial, out_dir=out,
                               progress=lambda msg: status.update(msg))
     except RegenError as exc:
-        Console(stderr=True).print(f"[red]error:[/red] {exc}")
+        Console(stderr=True, soft_wrap=True).print(f"[red]error:[/red] {escape(clean(str(exc)))}")
         raise typer.Exit(code=exc.exit_code) from exc
     print_report(report, console)
 
