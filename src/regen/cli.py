@@ -296,10 +296,15 @@ def generate_cmd(
             raise typer.Exit(130) from None
     if log == "jsonl":
         return
+    from regen.pipeline import summarize
+
+    summary = summarize(result.manifest, result.outcomes)
     relaxed = sum(o.verdict.status == "verified_after_relaxation" for o in result.outcomes)
-    ruled = sum(bool(o.verdict.fallbacks) for o in result.outcomes if o.verdict.feasible)
-    notes = ([f"{relaxed} after relaxing their FSM"] if relaxed else []) + (
-        [f"{ruled} with parts written by rules"] if ruled else [])
+    by = summary["verified_fsm_source"]
+    notes = [f"FSM by the model: {by.get('model', 0)}, by the rules: {by.get('rules', 0)}"
+             + (f", by the model with rule stages: {by['model+rules']}" if by.get("model+rules") else "")]
+    notes += [f"{relaxed} after relaxing their FSM"] if relaxed else []
+    notes += [f"{summary['cause_not_shown']} did not show their cause"] if summary["cause_not_shown"] else []
     console.print(f"[bold]{result.feasible}/{len(result.outcomes)} scenarios feasible[/]"
                   + (f" ({'; '.join(notes)})" if notes else "")
                   + f" ({escape(result.manifest.status)}); model: "

@@ -36,14 +36,30 @@ ANIMATION = "animation"
 KEYFRAMES = "keyframes"
 
 
+#: The default of :attr:`Wording.mechanics`: causes in which the robot is ordered or programmed
+#: to act ("the robot is programmed to open doors", "a human asks the robot to ...").
+ROBOT_ORDERS: tuple[str, ...] = (
+    r"(?:^|\bthe\s+|\bthis\s+)robot\s+(?:is|was|gets|got|has\s+been|had\s+been)\s+(?:\w+ly\s+|just\s+)?"
+    r"(?:programmed|commanded|instructed|ordered|told|asked|scheduled|designed|configured|tasked)\b",
+    r"\b(?:asks?|asked|tells?|told|commands?|commanded|instructs?|instructed|orders?|ordered|programs?|"
+    r"programmed)\s+(?:the\s+)?robot\b",
+)
+
+
 @dataclass(frozen=True)
 class Wording:
-    """The domain's words in the shared expansion prompts (``regen/expand/prompts``)."""
+    """The domain's words in the shared expansion prompts (``regen/expand/prompts``) and in the
+    rules applied to the model's answers."""
 
     expert: str  # system prompt: "You are an expert in <expert>."
     situation: str  # "plausibly and directly cause the effect in a realistic <situation> situation"
     cause_rule: str  # event proposal: what a cause must be (and must not be)
     value_hint: str  # property proposal: how free values (locations) are phrased, with an example
+    #: Regular expressions over the lower-cased cause text that mark a cause as a restatement of
+    #: the robot's own command, programming, sensors or mechanics rather than a context of the
+    #: world; expansion rejects such causes after the judge (``by="rule"``), unless the user
+    #: insisted on them. Searched with ``re.search``; the first match is quoted in the reason.
+    mechanics: tuple[str, ...] = ROBOT_ORDERS
 
 
 @dataclass(frozen=True)

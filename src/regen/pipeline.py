@@ -451,7 +451,19 @@ def summarize(manifest: RunManifest, outcomes: list[ScenarioOutcome]) -> dict[st
             "success_rate": (feasible / len(outcomes)) if outcomes else 0.0, "statuses": statuses,
             "relaxed": sum(bool(o.verdict.relaxations) for o in outcomes),
             "with_fallbacks": sum(bool(o.verdict.fallbacks) for o in outcomes),
+            "cause_not_shown": statuses.get("cause_not_shown", 0),
+            "verified_fsm_source": _fsm_sources(outcomes),
             "timings": manifest.timings, "usage": manifest.usage.get("total", {})}
+
+
+def _fsm_sources(outcomes: list[ScenarioOutcome]) -> dict[str, int]:
+    """Who wrote the FSM of each feasible scenario: {'model': n, 'rules': n, 'model+rules': n}."""
+    out: dict[str, int] = {}
+    for o in outcomes:
+        scenario = o.scenario() if o.verdict.feasible else None
+        if scenario is not None:
+            out[scenario.fsm_source] = out.get(scenario.fsm_source, 0) + 1
+    return out
 
 
 def _finish(run: RunFolder, manifest: RunManifest, outcomes: list[ScenarioOutcome], emit: Emit) -> None:

@@ -14,6 +14,8 @@ File format (JSON), mirroring the paper's ``node[...] = [...]`` graph with typed
 from __future__ import annotations
 
 import json
+import re
+from difflib import SequenceMatcher
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
@@ -45,6 +47,84 @@ class PropertySpec(Model):
 class BehaviorSpec(Model):
     description: str
     parameters: list[str] = Field(default_factory=list)
+
+
+#: Least similarity (0-1) at which a model-written entity name is taken for an asset.
+MATCH_THRESHOLD = 0.75
+#: Descriptions are longer and looser than ids and aliases: their matches count a little less.
+DESCRIPTION_WEIGHT = 0.95
+#: Without a shared head noun, only near-identical spellings count (typos: 'ambulence').
+SPELLING = 0.85
+
+_STOPWORDS = {"a", "an", "the", "some", "one", "two", "three", "its", "their", "his", "her", "own"}
+_CUT = re.compile(r"[:;,()]|\b(?:with|of|on|in|at|for|from|by|near|under|over|behind|beside|"
+                  r"that|which|who|and|or)\b")
+
+
+def name_words(text: str) -> list[str]:
+    """The words of a name as matching compares them: lower case, singular, no articles."""
+    text = re.sub(r"[^a-z0-9 ]+", " ", text.lower().replace("_", " ").replace("-", " "))
+    return [_singular(w) for w in text.split() if w not in _STOPWORDS]
+
+
+def _singular(word: str) -> str:
+    if len(word) > 4 and word.endswith(("ches", "shes", "xes", "sses")):
+        return word[:-2]
+    if len(word) > 3 and word.endswith("s") and not word.endswith(("ss", "us", "is")):
+        return word[:-1]
+    return word
+
+
+def _main_phrases(description: str) -> list[str]:
+    """The noun phrases a description names its asset by: the words before the first
+    preposition or participle ('car parked at the roadside' -> 'car'), and after a colon
+    ('emergency vehicle: ambulance' -> 'emergency vehicle', 'ambulance')."""
+    out: list[str] = []
+    for part in description.lower().split(":"):
+        words = name_words(_CUT.split(part.strip(), maxsplit=1)[0])
+        for i, w in enumerate(words[1:], start=1):
+            if w.endswith(("ing", "ed")):  # 'debris lying ...'; a first word is an adjective ('potted')
+                words = words[:i]
+                break
+        if words:
+            out.append(" ".join(words))
+    return out
+
+
+def similarity(name: str, key: str) -> float:
+    """How likely ``name`` means the thing ``key`` names, from 0 to 1 (deterministic).
+
+    Noun phrases are compared by their head noun (the last word): when both have the same head,
+    0.6 plus 0.4 times the share of words they have in common ('watering plant'
+    / 'plant': 0.8; 'coffee cup' / 'cup': 0.8; 'watering can' / 'trash can': 0.73); otherwise
+    only near-identical spellings count ('ambulence' / 'ambulance': 0.89), never a shared
+    modifier ('storage furniture' / 'storage box': 0; 'road' / 'road block': 0). A name with a
+    prepositional tail is also compared by its main phrase ('cup of coffee' -> 'cup').
+    """
+    n, k = name_words(name), name_words(key)
+    if not n or not k:
+        return 0.0
+    if n == k:
+        return 1.0
+    score = 0.0
+    if n[-1] == k[-1]:
+        sn, sk = set(n), set(k)
+        score = 0.6 + 0.4 * len(sn & sk) / len(sn | sk)
+    ratio = SequenceMatcher(None, "".join(n), "".join(k)).ratio()
+    return max(score, ratio if ratio >= SPELLING else 0.0)
+
+
+class AssetMatch(Model):
+    """How a model-written name was matched to an asset."""
+
+    asset: str
+    similarity: float  # 0-1, see :func:`similarity`
+    via: Literal["id", "alias", "description"]
+    key: str  # the id, alias or description phrase that matched
+
+    def describe(self, name: str) -> str:
+        what = "" if self.via == "id" else f" (by its {self.via} '{self.key}')"
+        return f"matched '{name}' to asset '{self.asset}'{what} (similarity {self.similarity:.2f})"
 
 
 class AssetDatabase(Model):
@@ -100,6 +180,30 @@ class AssetDatabase(Model):
             if key == aid.replace("_", " ") or key in (a.lower() for a in spec.aliases):
                 return aid
         return None
+
+    def match(self, name: str, threshold: float = MATCH_THRESHOLD) -> AssetMatch | None:
+        """The asset a model-written name most likely means, when it is no id or alias.
+
+        Deterministic similarity (see :func:`similarity`) against every asset's id, aliases and
+        description; the best at or above ``threshold`` wins (ties: the earlier asset). Call
+        :meth:`resolve` first: an exact id or alias is not a guess. ``None`` when nothing is close
+        enough; :meth:`closest` then tells how close the nearest came.
+        """
+        best = self.closest(name)
+        return best if best is not None and best.similarity >= threshold else None
+
+    def closest(self, name: str) -> AssetMatch | None:
+        """The most similar asset to ``name`` whatever the score (None when nothing is alike)."""
+        best: AssetMatch | None = None
+        names = [name, *(p for p in _main_phrases(name) if p != name.lower())]
+        for aid, spec in self.assets.items():
+            keys = [("id", aid), *(("alias", a) for a in spec.aliases)]
+            keys += [("description", d) for d in _main_phrases(spec.description)]
+            for via, key in keys:
+                score = max(similarity(n, key) for n in names) * (DESCRIPTION_WEIGHT if via == "description" else 1.0)
+                if score > 0 and (best is None or score > best.similarity):
+                    best = AssetMatch(asset=aid, similarity=round(score, 2), via=via, key=key)
+        return best
 
     def category_of(self, asset: str) -> str | None:
         for cat, members in self.categories.items():

@@ -32,11 +32,17 @@ class PredicateCall(Model):
 
 
 class AbstractState(Model):
-    """A named abstract state of one actor: true at a step when all its predicates hold."""
+    """A named abstract state of one actor: true at a step when all its predicates hold.
+
+    ``cause`` marks the state in which the scenario's cause visibly plays out (a crossing actor
+    on the ego's lane, a light turned red, the pet outside the door). Grounding puts every cause
+    state in a stage before the robot's reaction, whoever wrote the FSM; a cause state that is
+    never reached makes the verdict ``cause_not_shown``, not a plain FSM failure."""
 
     name: str
     actor: str
     all_of: list[PredicateCall] = Field(min_length=1)
+    cause: bool = False
 
 
 class StateRef(Model):
@@ -108,6 +114,9 @@ class Scenario(Model):
     solver: SolverReport = Field(default_factory=SolverReport)
     # parts of the scenario that rules wrote because the model's answer was unusable, in words
     fallbacks: list[str] = Field(default_factory=list)
+    # who wrote the FSM the verdict is about: the model, the domain's rules, or the model with
+    # stages added by rules (e.g. the cause stages it left out)
+    fsm_source: Literal["model", "rules", "model+rules"] = "rules"
 
     @model_validator(mode="after")
     def _actors_known(self) -> Scenario:

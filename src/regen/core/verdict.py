@@ -16,15 +16,20 @@ class StageResult(Model):
     satisfied_alone: dict[str, float | None] = Field(default_factory=dict)  # condition -> first time it held on its own
 
 
-VerdictStatus = Literal["verified", "verified_after_relaxation", "fsm_incomplete", "unsatisfiable",
-                        "grounding_failed", "simulation_failed", "invalid_scenario"]
+VerdictStatus = Literal["verified", "verified_after_relaxation", "cause_not_shown", "fsm_incomplete",
+                        "unsatisfiable", "ungroundable", "grounding_failed", "simulation_failed",
+                        "invalid_scenario"]
 #: The statuses of a scenario that played out (``feasible`` is true exactly for these).
 FEASIBLE_STATUSES: tuple[str, ...] = ("verified", "verified_after_relaxation")
 
 
 class Verdict(Model):
     """``verified``: the FSM as grounded was accepted. ``verified_after_relaxation``: accepted
-    only after over-strict stages were relaxed; ``relaxations`` says which and why."""
+    only after over-strict stages were relaxed; ``relaxations`` says which and why.
+    ``cause_not_shown``: the simulation ran, but a state in which the cause plays out was never
+    reached (before the robot's reaction), so the scenario does not show its cause.
+    ``ungroundable``: grounding could not honor what the causal graph decided (an entity's
+    behavior, start location, speed or state) and says which; it never swaps it silently."""
 
     feasible: bool
     status: VerdictStatus

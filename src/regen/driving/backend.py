@@ -118,6 +118,31 @@ class DrivingBackend(DomainBackend):
         cause_rule=("Each cause must involve other road users, objects, traffic lights or the ego's "
                     "sensors/driver, not the ego-vehicle's own mechanics."),
         value_hint='relative to the ego-vehicle (lane and side), e.g. "behind the ego-vehicle in the same lane"',
+        # causes that restate the ego's orders, programming or mechanics (rejected after the
+        # judge); its camera and GNSS are not here: glare and jamming are simulated contexts
+        mechanics=(
+            r"(?:\bego(?:[- ](?:vehicle|car))?|\bthe\s+(?:vehicle|car))\s+(?:is|was|gets|got|has\s+been|"
+            r"had\s+been)\s+(?:\w+ly\s+|just\s+)?(?:programmed|commanded|instructed|ordered|told|asked|"
+            r"scheduled|designed|configured|set|routed|planned)\s+to\b"
+            # a police officer's order is a context of the road, not the ego's instructions
+            r"(?![^.;]*\bby\s+(?:a|an|the)\s+(?:police|officer|traffic|flagger|road\s+worker|crossing\s+guard))",
+            r"\b(?:navigation|gps|route|planner|autopilot|cruise\s+control|software|program)(?:\s+system)?\s+"
+            r"(?:tells?|told|instructs?|instructed|commands?|commanded|orders?|ordered|asks?|asked)\b",
+            r"\b(?:passenger|operator|dispatcher)s?\b[^.;]*\b(?:asks?|asked|tells?|told|commands?|commanded|"
+            r"instructs?|instructed|orders?|ordered|requests?|requested)\b",
+            r"\bprograms?\s+(?:the\s+)?ego\b",
+            r"(?:\bego(?:[- ](?:vehicle|car))?'s|\bthe\s+(?:vehicle|car)'s|\bthe\s+ego's)\s+(?:own\s+)?(?:\w+\s+)?"
+            r"(?:brakes?|braking\s+system|engine|motor|tires?|tyres?|wheels?|steering|transmission|gearbox|"
+            r"battery|fuel|gas|accelerator|throttle|suspension|axle|software|firmware|autopilot|"
+            r"programming|program|controller|planner|cruise\s+control|computer|mechanics?)\b",
+            r"(?:\bego(?:[- ](?:vehicle|car))?|\bthe\s+(?:vehicle|car))\s+(?:just\s+|suddenly\s+)?"
+            r"(?:breaks\s+down|broke\s+down|stalls|stalled|malfunctions?|malfunctioned|overheats?|overheated|"
+            r"runs\s+out\s+of|ran\s+out\s+of|has\s+(?:a|an)\s+(?:flat|mechanical|technical|engine|brake|software)|"
+            r"loses\s+(?:power|its\s+brakes)|is\s+low\s+on\s+(?:fuel|gas|battery))",
+            r"(?:\bego(?:[- ](?:vehicle|car))?|\bthe\s+(?:vehicle|car))\s+(?:suffers|has|experiences|develops)\s+"
+            r"(?:a|an)\s+(?:sudden\s+)?(?:brake|engine|mechanical|software|steering|technical)\s+"
+            r"(?:failure|fault|malfunction|problem)\b",
+        ),
     )
     report_hints = ReportHints(animation="bird's-eye animation of the run",
                                keyframes="key frames at the start, at each stage and at the end "

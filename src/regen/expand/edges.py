@@ -7,13 +7,16 @@ source node in one call, not pairwise.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Any
 
 from pydantic import Field, create_model
 
-from regen.assets.database import AssetDatabase
+from regen.assets.database import MATCH_THRESHOLD, AssetDatabase, name_words
 from regen.core.base import Answer
+from regen.errors import ConfigError
 from regen.expand.answers import EdgeJudgement, EntitySelection, EventProposal
 from regen.expand.dedupe import normalize, similar
 from regen.llm.client import LLM
@@ -30,6 +33,7 @@ class Judged:
     accepted: dict[str, str] = field(default_factory=dict)  # candidate -> reason
     rejected: dict[str, str] = field(default_factory=dict)  # candidate -> reason
     unknown: dict[str, str] = field(default_factory=dict)  # names the model gave that were not offered
+    matched: dict[str, str] = field(default_factory=dict)  # accepted candidate -> how the model's name was matched
 
 
 def _wording(domain: str):
@@ -45,6 +49,35 @@ def _render(name: str, domain: str, **variables: object) -> str:
 
 def system_prompt(domain: str) -> str:
     return _render("system", domain)
+
+
+def robot_word(domain: str) -> str:
+    """What the domain calls the robot whose behavior is explained ('robot', 'ego-vehicle')."""
+    from regen import domains
+
+    return domains.backend_class(domain).report_hints.robot
+
+
+@lru_cache(maxsize=32)
+def _mechanics(domain: str, patterns: tuple[str, ...]) -> tuple[re.Pattern[str], ...]:
+    out = []
+    for p in patterns:
+        try:
+            out.append(re.compile(p))
+        except re.error as exc:
+            raise ConfigError(f"domain {domain!r}: Wording.mechanics pattern {p!r} is not a valid "
+                              f"regular expression ({exc})") from None
+    return tuple(out)
+
+
+def restates_mechanics(domain: str, cause: str) -> str | None:
+    """The words of ``cause`` that restate the robot's own command, programming, sensors or
+    mechanics (the domain's ``Wording.mechanics``), or None for a context of the world."""
+    text = " ".join(cause.lower().replace("\u2019", "'").split())
+    for rx in _mechanics(domain, tuple(_wording(domain).mechanics)):
+        if m := rx.search(text):
+            return m.group(0).strip() or text
+    return None
 
 
 def _match(name: str, options: list[str]) -> str | None:
@@ -96,13 +129,34 @@ def select_entities(llm: LLM, db: AssetDatabase, domain: str, chain: list[str]) 
                     entities=[(a, db.assets[a].description) for a in options])
     got = llm.ask(prompt, EntitySelection, purpose="entity_edges", system=system_prompt(domain))
     out = Judged(call_id=got.call_id)
+    robot = robot_word(domain)
+    # words that name the robot itself ('ego' of 'ego-vehicle'): never guessed to be another asset
+    own = {w for w in name_words(robot) if db.resolve(w) is None}
     for ch in got.value.entities:
-        target = _match(ch.name, options) or db.resolve(ch.name)
+        target, how = _match(ch.name, options), None
+        if target is None and (target := db.resolve(ch.name)) is not None:
+            how = f"resolved '{ch.name}' to asset '{target}' (one of its names in the database)"
+        if target is None and own.isdisjoint(name_words(ch.name)):
+            if (m := db.match(ch.name)) is not None:
+                target, how = m.asset, m.describe(ch.name)
         if target is None:
-            out.unknown[ch.name] = "not in the simulator's asset database"
-        else:
-            out.accepted.setdefault(target, ch.reason or "directly related")
+            out.unknown[ch.name] = _unknown_reason(db, ch.name, robot, own)
+        elif target not in out.accepted:
+            out.accepted[target] = ch.reason or "directly related"
+            if how:
+                out.matched[target] = how
     return out
+
+
+def _unknown_reason(db: AssetDatabase, name: str, robot: str, own: set[str]) -> str:
+    why = f"'{name}' is not in the {db.name} asset database"
+    if not own.isdisjoint(name_words(name)):
+        return why + f" (it names the {robot} itself)"
+    near = db.closest(name)
+    if near is not None:
+        why += (f" (closest: '{near.asset}', similarity {near.similarity:.2f}, below "
+                f"{MATCH_THRESHOLD:.2f})")
+    return why
 
 
 def propose_values(llm: LLM, domain: str, chain: list[str], event: str, entity: str,

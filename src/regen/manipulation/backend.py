@@ -28,6 +28,28 @@ class ManipulationBackend(DomainBackend):
         cause_rule=("Each cause must be a purpose or a situation in the home that makes the robot do "
                     "this (for example who or what benefits), not the robot's own mechanics."),
         value_hint='relative to the robot, the table or furniture, e.g. "on the table left of the robot"',
+        # causes that restate the robot's orders, programming, sensors or mechanics (rejected after
+        # the judge); "the robot" is this robot, not "a robot vacuum" in the room
+        mechanics=(
+            r"(?:^|\bthe\s+|\bthis\s+)robot(?!\s+(?:vacuum|cleaner|mower|toy))\s+(?:is|was|gets|got|"
+            r"has\s+been|had\s+been|becomes)\s+(?:\w+ly\s+|just\s+|being\s+)?(?:programmed|commanded|"
+            r"instructed|ordered|told|asked|requested|scheduled|designed|configured|tasked|assigned|"
+            r"triggered|prompted|activated|powered|charged|turned\s+on|switched\s+on|calibrated|updated)\b",
+            r"\b(?:asks?|asked|tells?|told|commands?|commanded|instructs?|instructed|orders?|ordered|"
+            r"programs?|programmed|requests?|requested)\s+(?:the\s+|this\s+)?robot\b"
+            r"(?!\s+(?:vacuum|cleaner|mower|toy))",
+            r"(?:^|\bthe\s+|\bthis\s+)robot\s+(?:receives|received|gets|got|follows|followed|obeys|obeyed|"
+            r"executes|executed|runs|ran)\s+(?:a|an|the|its)\s+(?:\w+\s+)?(?:command|instruction|order|"
+            r"request|task|program|routine|schedule)s?\b",
+            r"\brobot's\s+(?:own\s+)?(?:\w+\s+)?(?:battery|batteries|charge|power|motors?|sensors?|cameras?|"
+            r"grippers?|joints?|software|firmware|program|programming|controller|code|algorithm|schedule|"
+            r"routine|task\s+list|timer|clock|memory|mechanics?|mechanism)\b",
+            r"(?:^|\bthe\s+|\bthis\s+)robot\b.*\bits\s+(?:own\s+)?(?:\w+\s+)?(?:sensors?|cameras?|battery|"
+            r"programming|program|software|firmware|schedule|routine)\b",
+            r"(?:^|\bthe\s+|\bthis\s+)robot\s+(?:\w+\s+)?(?:malfunctions?|malfunctioned|breaks\s+down|"
+            r"broke\s+down|glitch\w*|reboots?|rebooted|crashes|crashed|overheats?|shuts\s+down|"
+            r"needs\s+to\s+(?:re)?charge|is\s+(?:low\s+on|out\s+of)\s+(?:battery|power))\b",
+        ),
     )
     report_hints = ReportHints(animation="PyBullet camera view of the run",
                                keyframes="frames from start to end (click for full size)",

@@ -39,6 +39,7 @@ class ConditionRow:
     definition: str  # the predicates of the abstract state, e.g. 'behind(a, ego) and ...'
     alone_at: float | None = None  # [s] first time it held on its own (unmet stage only)
     alone_known: bool = False  # the verdict recorded satisfied_alone for it
+    cause: bool = False  # a state in which the scenario's cause plays out
 
 
 @dataclass
@@ -57,9 +58,11 @@ def stage_rows(sv: ScenarioView) -> list[StageRow]:
     if sv.scenario is not None:
         fsm = sv.scenario.fsm
         defs = {(s.actor, s.name): " and ".join(str(p) for p in s.all_of) for s in fsm.states}
+        causes = {(s.actor, s.name) for s in fsm.states if s.cause}
         for k, st in enumerate(fsm.stages, start=1):
             rows.append(StageRow(index=k, conditions=[
-                ConditionRow(label=f"{c.actor}: {c.state}", definition=defs.get((c.actor, c.state), ""))
+                ConditionRow(label=f"{c.actor}: {c.state}", definition=defs.get((c.actor, c.state), ""),
+                             cause=(c.actor, c.state) in causes)
                 for c in st.conditions]))
     else:  # no scenario.json: the verdict alone still says what was checked
         for r in sorted(results.values(), key=lambda r: r.index):

@@ -108,6 +108,7 @@ class Summary:
     feasible: int
     statuses: dict[str, int]  # verdict status (or 'unfinished'/'unreadable') -> count
     relaxed: int = 0  # feasible only after relaxing the FSM
+    fsm_sources: dict[str, int] = field(default_factory=dict)  # feasible scenarios by who wrote their FSM
 
     @property
     def success_rate(self) -> float | None:
@@ -140,7 +141,9 @@ class RunView:
                        feasible=sum(1 for s in finished if s.verdict and s.verdict.feasible),
                        statuses=dict(sorted(statuses.items())),
                        relaxed=sum(1 for s in finished if s.verdict and s.verdict.relaxations
-                                   and s.verdict.feasible))
+                                   and s.verdict.feasible),
+                       fsm_sources=dict(Counter(s.scenario.fsm_source for s in finished
+                                                if s.verdict and s.verdict.feasible and s.scenario)))
 
     def run_field(self, key: str) -> Any:
         return self.run.get(key) if isinstance(self.run, dict) else None

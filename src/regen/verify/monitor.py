@@ -109,6 +109,13 @@ def check_fsm(scenario: Scenario, trace: Trace) -> Verdict:
         why = "never held after the previous stage: " + ", ".join(never)
     else:
         why = "each condition held at some time, but never all at once"
+    causes = [f"{c.actor}: {c.state}" for c in fsm.stages[first_unmet - 1].conditions
+              if fsm.state(c.actor, c.state).cause]
+    if causes:  # the cause itself did not play out: the scenario does not show what it claims
+        return Verdict(feasible=False, status="cause_not_shown",
+                       reason=f"the cause did not play out: stage {first_unmet} "
+                              f"({'; '.join(stage.conditions)}) was not reached: {why}",
+                       stages=results, first_unmet_stage=first_unmet, **_notes(scenario))
     return Verdict(feasible=False, status="fsm_incomplete",
                    reason=f"stage {first_unmet} ({'; '.join(stage.conditions)}) was not reached: {why}",
                    stages=results, first_unmet_stage=first_unmet, **_notes(scenario))

@@ -24,7 +24,7 @@ def relax_fsm(fsm: FSM, verdict: Verdict) -> tuple[FSM, str] | None:
     """Split the first unmet stage into consecutive stages, ordered by when each condition first
     held on its own, when every condition held at some time but never all at once."""
     k = verdict.first_unmet_stage
-    if k is None or verdict.status != "fsm_incomplete":
+    if k is None or verdict.status not in ("fsm_incomplete", "cause_not_shown"):
         return None
     alone = verdict.stages[k - 1].satisfied_alone
     if len(alone) < 2 or any(t is None for t in alone.values()):
