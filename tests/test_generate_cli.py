@@ -24,8 +24,8 @@ def _state(stage, actor, name, *holds):
     return {"stage": stage, "actor": actor, "name": name, "holds": list(holds)}
 
 
+# the graph fixed the child's behavior and start: the model is asked only what the graph left open
 CHILD_ROLES = {"narrative": "A child runs across the road from the sidewalk, so the ego brakes hard.",
-               "child1_behavior": "cross_the_road", "child1_start": "roadside_ahead",
                "child1_speed": "moderate"}
 # over-strict: the ego must brake at the very step the child is already back on the far sidewalk
 STRICT_FSM = {"states": [

@@ -151,3 +151,22 @@ def test_select_paths_prefers_distinct_causes_then_property_variants() -> None:
     assert [p.events[0] for p in chosen] == ["a jaywalker", "debris", "a jaywalker"]
     assert [p.entities[0].properties.get("start_location") for p in chosen] == [
         ["roadside_ahead"], None, ["crosswalk_ahead"]]
+
+
+def test_a_graph_choice_grounding_cannot_honor_is_an_ungroundable_verdict(tmp_path: Path) -> None:
+    from regen.core.graph import CausePath, PathEntity
+    from regen.errors import UngroundableError
+    from regen.pipeline import ground_stage
+    from regen.runfolder import ScenarioFolder
+
+    class Refuses(FakeBackend):
+        def ground(self, path, llm, *, seed=0):
+            raise UngroundableError("bicycle1: the graph chose behavior 'stationary' at 'crosswalk_ahead', "
+                                    "which no primitive of a bicycle can start from")
+
+    path = CausePath(behavior=Behavior(text=STOP, domain="driving"), events=["a cyclist crosses", STOP],
+                     entities=[PathEntity(asset="bicycle", event="a cyclist crosses")])
+    folder = ScenarioFolder(tmp_path / "s")
+    verdict = ground_stage(Refuses(), path, None, folder)
+    assert verdict.status == "ungroundable" and not verdict.feasible
+    assert "bicycle1" in verdict.reason and folder.verdict() == verdict

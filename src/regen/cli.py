@@ -168,6 +168,10 @@ LLM_HELP = ("Model: local (offline default), local:<alias or .gguf>, openai:<mod
             "(OPENAI_API_KEY; any compatible server via REGEN_OPENAI_BASE_URL, which gets "
             "REGEN_OPENAI_API_KEY or no key, never OPENAI_API_KEY), anthropic:<model> "
             "(ANTHROPIC_API_KEY)")
+CANDIDATE_HELP = ("A cause of the behavior for the model to judge with its own (repeatable); a "
+                  "rejected one stays in the graph with the judge's reason")
+CAUSE_HELP = ("A cause of the behavior to accept whatever the judge says (repeatable); the judge's "
+              "opinion is recorded, then it is expanded to entities and properties like any other")
 LLM_TIMEOUT_HELP = ("Seconds to wait for one request to a remote model before retrying it (4 tries "
                     "in all); default: REGEN_LLM_TIMEOUT, else 120")
 
@@ -185,7 +189,8 @@ def expand_cmd(
     max_tokens: int = typer.Option(None, "--max-tokens", min=1, help="Stop after this many tokens"),
     causes: int = typer.Option(_LIMITS.max_causes, "--causes", min=1, max=12, help="Causes proposed per event"),
     prior: str = typer.Option(None, "--prior", help="Steer proposals, e.g. 'police car'"),
-    candidate: list[str] = typer.Option(None, "--candidate", help="A cause to judge too (repeatable)"),
+    candidate: list[str] = typer.Option(None, "--candidate", help=CANDIDATE_HELP),
+    cause: list[str] = typer.Option(None, "--cause", help=CAUSE_HELP),
     cache: str = typer.Option(None, "--cache", help="LLM cache file (default: user cache dir)"),
     replay: bool = typer.Option(False, "--replay", help="Forbid model calls: cached answers only"),
     llm_timeout: float = typer.Option(None, "--llm-timeout", min=0.1, help=LLM_TIMEOUT_HELP),
@@ -218,7 +223,7 @@ def expand_cmd(
 
     with Live(spinner, console=err_console, transient=True, refresh_per_second=4):
         res = run_expand(b, client, Path(out), limits=limits, prior=prior, candidates=candidate or [],
-                         on_update=on_update)
+                         forced_causes=cause or [], on_update=on_update)
     g = res.graph
     paths = g.paths()
     counts = g.counts()
@@ -255,7 +260,8 @@ def generate_cmd(
     scenarios: int = typer.Option(_SETTINGS.max_scenarios, "--scenarios", "-n", min=1, help="Most scenarios to simulate"),
     causes: int = typer.Option(_LIMITS.max_causes, "--causes", min=1, max=12, help="Causes proposed per event"),
     prior: str = typer.Option(None, "--prior", help="Steer proposals, e.g. 'police car'"),
-    candidate: list[str] = typer.Option(None, "--candidate", help="A cause to judge too (repeatable)"),
+    candidate: list[str] = typer.Option(None, "--candidate", help=CANDIDATE_HELP),
+    cause: list[str] = typer.Option(None, "--cause", help=CAUSE_HELP),
     template: str = typer.Option(None, "--ego", help="Driving: ego behavior template (default: from the text)"),
     reward: str = typer.Option(None, "--reward", help="Manipulation: reward function id (default: from the text)"),
     seed: int = typer.Option(0, "--seed", help="Seed for solving and simulation"),
@@ -284,7 +290,8 @@ def generate_cmd(
         extra["reward"] = reward
     b = make_behavior(behavior, domain, **extra)
     settings = RunSettings(llm=llm, depth=depth, max_nodes=max_nodes, max_scenarios=scenarios,
-                           causes=causes, prior=prior, candidates=candidate or [], seed=seed,
+                           causes=causes, prior=prior, candidates=candidate or [],
+                           forced_causes=cause or [], seed=seed,
                            workers=workers, pictures=not no_pictures, llm_timeout=llm_timeout)
     with make_progress(log, console=err_console, out=console) as progress:
         try:
@@ -391,6 +398,16 @@ def _mount_eval() -> None:
 
 
 _mount_eval()
+
+
+def _mount_test() -> None:
+    from regen.test_cli import test_command
+
+    app.command("test", help="Run a driving policy through a run's verified scenarios: pass/fail, "
+                             "collisions, tests.json and junit.xml.")(test_command)
+
+
+_mount_test()
 
 
 def print_json(value: Any) -> None:

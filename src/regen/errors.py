@@ -89,6 +89,12 @@ class GroundingError(RegenError):
     """A cause chain could not be turned into a scenario (recorded as a verdict, not fatal)."""
 
 
+class UngroundableError(GroundingError):
+    """Grounding cannot honor what the causal graph decided for an entity (a behavior its asset
+    does not support, a start location its behavior or the map cannot have); the message names
+    the entity, the property and the value. Never swapped silently for something else."""
+
+
 class SimulationError(RegenError):
     """The simulator failed on a scenario (recorded as a verdict, not fatal)."""
 

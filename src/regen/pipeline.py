@@ -34,7 +34,7 @@ from regen.core.scenario import Scenario
 from regen.core.trace import Trace
 from regen.core.verdict import Verdict
 from regen.domains import DomainBackend
-from regen.errors import GroundingError, LLMError, MalformedAnswerError, RegenError
+from regen.errors import LLMError, MalformedAnswerError, RegenError, UngroundableError
 from regen.expand.expansion import expand
 from regen.expand.run import save_graph
 from regen.llm.client import LLM
@@ -137,8 +137,9 @@ def ground_stage(backend: DomainBackend, path: CausePath, llm: LLM | None, folde
         if _fatal(exc):
             raise
         folder.write_error(traceback.format_exc())
-        reason = str(exc) if isinstance(exc, (GroundingError, RegenError)) else f"{type(exc).__name__}: {exc}"
-        verdict = _failed("grounding_failed", reason)
+        reason = str(exc) if isinstance(exc, RegenError) else f"{type(exc).__name__}: {exc}"
+        # the graph's choice cannot be honored: said as such, never swapped for another choice
+        verdict = _failed("ungroundable" if isinstance(exc, UngroundableError) else "grounding_failed", reason)
         folder.write_verdict(verdict)
         return verdict
     folder.write_scenario(scenario, backend.config(scenario))
@@ -349,6 +350,7 @@ def _stages(run: RunFolder, manifest: RunManifest, backend: DomainBackend, setti
         t0 = time.perf_counter()
         graph = expand(behavior, llm, database=backend.database(), limits=settings.limits(),
                        prior=settings.prior, candidates=settings.candidates,
+                       forced_causes=settings.forced_causes,
                        on_update=lambda g, what: (write_json(run / run.GRAPH, g),
                                                   emit("graph", step=what, nodes=len(g.nodes))))
         if graph.stop_reason and "interrupted" in graph.stop_reason:

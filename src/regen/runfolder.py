@@ -51,7 +51,8 @@ class RunSettings(Model):
     causes: int = _LIMITS.max_causes  # candidates per proposal call
     max_entities: int = _LIMITS.max_entities  # entities kept per event
     prior: str | None = None
-    candidates: list[str] = Field(default_factory=list)
+    candidates: list[str] = Field(default_factory=list)  # causes of the behavior to judge too
+    forced_causes: list[str] = Field(default_factory=list)  # causes accepted whatever the judge says
     seed: int = 0
     workers: int = 1  # processes for simulation (does not change results)
     llm_timeout: float | None = None  # [s] per model request; None: REGEN_LLM_TIMEOUT, else 120
@@ -59,7 +60,7 @@ class RunSettings(Model):
 
     #: Fields whose change changes what a run produces: a resume must keep them.
     RESULT_FIELDS: ClassVar[tuple[str, ...]] = ("llm", "depth", "max_nodes", "max_scenarios", "causes",
-                                      "max_entities", "prior", "candidates", "seed")
+                                      "max_entities", "prior", "candidates", "forced_causes", "seed")
 
     def limits(self) -> Limits:
         return Limits(max_depth=self.depth, max_nodes=self.max_nodes, max_causes=self.causes,

@@ -21,3 +21,27 @@ def straight_map(tmp_path_factory):
         from regen.driving.maps import ensure_map
 
         yield ensure_map("straight")
+
+
+@pytest.fixture(scope="session")
+def chain_result(tmp_path_factory):
+    """``chain_result(key, i)``: the hand-written feasible chain ``FEASIBLE[key][i]`` through the
+    main job's stages (rule-based grounding), run once per session (several modules check it)."""
+    pytest.importorskip("scenic")
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parent))  # the tests folder is not a package
+    from driving_chains import FEASIBLE
+
+    from regen.pipeline import run_path
+
+    root = tmp_path_factory.mktemp("chains")
+    done: dict = {}
+
+    def get(key: str, i: int):
+        if (key, i) not in done:
+            done[(key, i)] = run_path(FEASIBLE[key][i], root / f"{key}-{i}", pictures=False)
+        return done[(key, i)]
+
+    return get

@@ -18,7 +18,12 @@ from regen.driving.fsm_rules import rule_based_fsm  # noqa: E402
 from regen.driving.ground import ground_rule_based, roles_of, template_of  # noqa: E402
 from regen.driving.llm_answers import fsm_schema, parse_call  # noqa: E402
 from regen.driving.llm_ground import ground_with_model  # noqa: E402
-from regen.errors import CacheMissError, GroundingError, ProviderUnreachableError  # noqa: E402
+from regen.errors import (  # noqa: E402
+    CacheMissError,
+    GroundingError,
+    ProviderUnreachableError,
+    UngroundableError,
+)
 from regen.llm import LLM  # noqa: E402
 from regen.llm.testing import QueuedProvider  # noqa: E402
 from regen.verify.predicates import list_predicates  # noqa: E402
@@ -27,9 +32,11 @@ CHILD = FEASIBLE["stop_abruptly"][0]  # a child runs across the road
 AMBULANCE = FEASIBLE["stop_abruptly"][1]  # an ambulance with its siren on approaches from behind
 RED_LIGHT = FEASIBLE["stop_in_intersection"][0]  # a car runs the red light
 
+# the graph chose the child's behavior and start: the model only tells the story and the speed
 CHILD_ROLES = {"narrative": "A child runs across the road from the sidewalk, so the ego brakes hard.",
-               "child1_behavior": "cross_the_road", "child1_start": "roadside_ahead",
                "child1_speed": "moderate"}
+# a child the graph says nothing about: the model chooses its behavior, start and speed
+OPEN_CHILD = chain("stop_abruptly", "a child runs across the road", ("child", {}))
 
 
 def _state(stage, actor, name, *holds):
@@ -39,7 +46,8 @@ def _state(stage, actor, name, *holds):
 CHILD_FSM = {"states": [
     _state(1, "child1", "waiting", "on_sidewalk(child1)"),
     _state(1, "ego", "driving", "moving(ego, min_speed=3)"),
-    _state(3, "child1", "crossing", "on_road(child1)", "moving(child1)"),  # gap: 3 becomes 2
+    # gap: 3 becomes 2; it shows the cause (moving in the ego's lane ahead), so none is added
+    _state(3, "child1", "crossing", "same_lane(child1, ego)", "ahead_of(child1, ego)", "moving(child1)"),
     _state(4, "ego", "braking", "braking(ego)"),
     _state(5, "ego", "stopped", "stopped(ego)", "not in_front(child1, ego, distance=2)"),
 ]}
@@ -63,7 +71,10 @@ def test_good_answer_grounds_into_the_models_scenario():
     assert sc.fsm.state("ego", "driving").all_of[0].params == {"min_speed": 3.0}
     assert sc.entity("child1").behavior == "cross_the_road"
     assert sc.solver.status in ("optimal", "feasible") and sc.solver.relaxations == [] and sc.fallbacks == []
+    assert sc.fsm_source == "model" and sc.fsm.state("child1", "crossing").cause
     assert len(sc.world["model_calls"].split(",")) == 2
+    # the roles call asks only what the graph left open: the speed
+    assert "Fill in child1_speed, narrative." in provider.requests[0][-1]["content"]
     # the FSM prompt names only this scenario's actors and leaves out impossible predicates
     fsm_prompt = provider.requests[1][-1]["content"]
     assert "child1: child, cross the road from roadside_ahead" in fsm_prompt
@@ -71,10 +82,11 @@ def test_good_answer_grounds_into_the_models_scenario():
 
 
 def test_model_roles_change_the_placement():
-    roles = dict(CHILD_ROLES, child1_start="roadside_opposite_ahead", child1_speed="fast")
+    roles = dict(CHILD_ROLES, child1_behavior="cross_the_road", child1_start="roadside_opposite_ahead",
+                 child1_speed="fast")
     llm, _ = _llm(roles, CHILD_FSM)
-    sc = ground_with_model(CHILD, llm)
-    rule = ground_rule_based(CHILD)
+    sc = ground_with_model(OPEN_CHILD, llm)
+    rule = ground_rule_based(OPEN_CHILD)
     assert sc.entity("child1").behavior_params["location"] == "roadside_opposite_ahead"
     assert rule.entity("child1").behavior_params["location"] == "roadside_ahead"
     assert sc.parameters["child1"] != rule.parameters["child1"]
@@ -105,6 +117,22 @@ def test_fsm_that_stays_invalid_falls_back_to_the_rules_with_the_reason():
     assert sc.solver.relaxations == []  # a model fallback is not a placement relaxation
 
 
+def test_after_a_failed_fsm_schema_the_same_client_uses_the_rules_without_asking():
+    bad = {"states": [_state(1, "child1", "w", "on_sidewalk(child1)"),
+                      _state(2, "ego", "driving", "moving(ego, min_speed=10)")]}  # it drives at most 10 m/s
+    llm, provider = _llm(CHILD_ROLES, bad, bad, bad, {"narrative": "An ambulance overtakes with its siren on."})
+    first = ground_with_model(CHILD, llm)
+    assert first.world["rule_parts"] == "fsm" and llm.stats.by_purpose["ground_fsm"].calls == 3
+    second = ground_with_model(AMBULANCE, llm)  # the roles call only
+    assert len(provider.requests) == 5 and llm.stats.by_purpose["ground_fsm"].calls == 3
+    assert second.world["rule_parts"] == "fsm" and second.fsm == rule_based_fsm(roles_of(second),
+                                                                                template_of(second))
+    assert second.fallbacks == [f"ground_fsm: not asked, the model failed its schema earlier with this client "
+                                f"(scenario {first.id}); used the rules"]
+    llm, _ = _llm(CHILD_ROLES, CHILD_FSM)  # another client asks again
+    assert ground_with_model(CHILD, llm).world["model_parts"] == "narrative,roles,fsm"
+
+
 def test_unknown_behavior_and_extra_actor_are_reasked_then_fall_back():
     bad = dict(CHILD_ROLES, child1_behavior="fly", dragon1_behavior="drive_forward")
     llm, provider = _llm(bad, bad, bad, CHILD_FSM)
@@ -127,34 +155,36 @@ def test_malformed_answers_fall_back_to_rules_entirely():
 
 
 def test_start_that_does_not_suit_the_behavior_is_reasked():
-    bad = dict(CHILD_ROLES, child1_behavior="walk_along", child1_start="crosswalk_ahead")
-    llm, provider = _llm(bad, CHILD_ROLES, CHILD_FSM)
-    sc = ground_with_model(CHILD, llm)
+    good = dict(CHILD_ROLES, child1_behavior="cross_the_road", child1_start="roadside_ahead")
+    bad = dict(good, child1_behavior="walk_along", child1_start="crosswalk_ahead")
+    llm, provider = _llm(bad, good, CHILD_FSM)
+    sc = ground_with_model(OPEN_CHILD, llm)
     assert sc.world["grounder"] == "model"
     assert "walk_along starts at: roadside_ahead, roadside_opposite_ahead" in provider.requests[1][-1]["content"]
 
 
 def test_locations_the_map_cannot_host_are_not_offered():
     # stop_in_intersection runs on a one-lane junction road: no adjacent lane exists
+    car = chain("stop_in_intersection", "a car crosses", ("sedan", {}))
     llm, provider = _llm("{}", "{}", "{}", "{}", "{}", "{}")
-    ground_with_model(RED_LIGHT, llm)
+    ground_with_model(car, llm)
     schema = provider.requests[0]
     prompt = schema[-1]["content"]
     assert "junction_cross_street" in prompt and "behind_adjacent_lane" not in prompt
     bad = {"narrative": "A car runs the red light.", "sedan1_behavior": "drive_forward",
            "sedan1_start": "behind_adjacent_lane", "sedan1_speed": "fast"}
     llm, provider = _llm(bad, bad, bad, "{}", "{}", "{}")
-    sc = ground_with_model(RED_LIGHT, llm)
+    sc = ground_with_model(car, llm)
     reask = provider.requests[1][-1]["content"]
     assert "sedan1_start: Input should be" in reask and "behind_adjacent_lane" not in reask
-    assert sc.entity("sedan1").behavior == "run_red_light"  # the rule-based role
+    assert sc.entity("sedan1").behavior == "drive_forward"  # the rule-based role
 
 
 def test_infeasible_model_roles_fall_back_to_feasible_rule_roles():
-    # a slow lead that must brake ahead of the ego has no placement; the path says moderate
-    lead = FEASIBLE["stop_abruptly"][2]
-    roles = {"narrative": "The car in front brakes hard.", "sedan1_behavior": "drive_forward",
-             "sedan1_start": "ahead_same_lane", "sedan1_speed": "slow"}
+    # a slow lead that must brake ahead of the ego has no placement; the path leaves the speed open
+    lead = chain("stop_abruptly", "the car in front brakes hard", ("sedan", {
+        "behavior": ["drive_forward"], "start_location": ["ahead_same_lane"]}))
+    roles = {"narrative": "The car in front brakes hard.", "sedan1_speed": "slow"}
     fsm = {"states": [_state(1, "sedan1", "leading", "in_front(sedan1, ego, distance=60)"),
                       _state(2, "ego", "stopped", "stopped(ego)")]}
     llm, _ = _llm(roles, fsm)
@@ -167,9 +197,7 @@ def test_infeasible_model_roles_fall_back_to_feasible_rule_roles():
 
 
 def test_fsm_that_can_never_hold_is_reasked():
-    roles = {"narrative": "An ambulance with its siren on overtakes the ego.",
-             "ambulance1_behavior": "drive_forward", "ambulance1_start": "behind_adjacent_lane",
-             "ambulance1_speed": "fast"}
+    roles = {"narrative": "An ambulance with its siren on overtakes the ego."}  # the graph chose the rest
     bad = {"states": [_state(1, "ambulance1", "passing", "behind(ambulance1, ego)", "changing_lane(ambulance1)"),
                       _state(2, "ego", "yielding", "siren_on(ego)")]}
     good = {"states": [_state(1, "ambulance1", "approaching", "behind(ambulance1, ego)", "siren_on(ambulance1)"),
@@ -181,7 +209,10 @@ def test_fsm_that_can_never_hold_is_reasked():
     assert "siren_on(ego) never holds" in reask
     assert "'changing_lane' is not a predicate of this scenario" in reask  # nobody changes lanes
     assert sc.world["grounder"] == "model"
-    assert [s.name for s in sc.fsm.states] == ["approaching", "braking", "passed"]
+    # the model's states, and the rules' cause state (closing in, in the next lane, siren on)
+    assert [s.name for s in sc.fsm.states] == ["approaching", "braking", "passed", "close_behind"]
+    assert sc.fsm.as_tuples()[1:3] == [[("ambulance1", "close_behind")], [("ego", "braking")]]
+    assert sc.fsm_source == "model+rules" and sc.fallbacks[0].startswith("cause stages added by rules: ")
 
 
 def test_hostile_narrative_is_kept_as_data_and_escaped_in_scenic():
@@ -231,14 +262,14 @@ def test_provider_errors_propagate_after_a_good_first_answer():
         ground_with_model(CHILD, LLM(FunctionProvider(answer)))
 
 
-def test_unplaceable_location_text_is_chosen_by_the_model():
+def test_unplaceable_location_text_is_ungroundable_in_both_grounders():
     path = chain("stop_abruptly", "a child runs out", ("child", {"start_location": ["on the moon"]}))
-    with pytest.raises(GroundingError, match="cannot place"):
+    with pytest.raises(UngroundableError, match="child1: the graph's start_location = 'on the moon'"):
         ground_rule_based(path)
-    llm, _ = _llm(CHILD_ROLES, CHILD_FSM)
-    sc = ground_with_model(path, llm)
-    assert sc.entity("child1").behavior_params["location"] == "roadside_ahead"
-    assert "on the moon" in sc.world["grounding_notes"]
+    llm, provider = _llm(CHILD_ROLES, CHILD_FSM)
+    with pytest.raises(UngroundableError, match="on the moon"):
+        ground_with_model(path, llm)
+    assert provider.requests == []  # no answer could honor it: the model is not asked
 
 
 # --- the pieces ---------------------------------------------------------------------------------
@@ -334,8 +365,10 @@ def test_over_strict_model_stage_is_relaxed_after_simulation(tmp_path):
     assert scenario.world["grounder"] == "model"
     assert r.verdict.status == "verified_after_relaxation", r.verdict.reason
     assert any("relaxed into 2 consecutive stages" in x for x in r.verdict.relaxations)
-    assert scenario.fsm.as_tuples()[2:] == [[("ego", "braking")], [("child1", "crossed")]]
-    stage = r.verdict.stages[2]  # braking (t ~ 6 s) comes before the far sidewalk (t ~ 13 s)
+    # "on the road" does not show the crossing: the rules' cause stage comes before the braking
+    assert scenario.fsm_source == "model+rules" and scenario.fsm.state("child1", "crossing_2").cause
+    assert scenario.fsm.as_tuples()[2:] == [[("child1", "crossing_2")], [("ego", "braking")], [("child1", "crossed")]]
+    stage = r.verdict.stages[3]  # braking (t ~ 6 s) comes before the far sidewalk (t ~ 13 s)
     assert stage.conditions == ["ego: braking"] and 5.5 < stage.reached_at < 7.5
 
 
@@ -345,10 +378,10 @@ CASSETTES = Path(__file__).resolve().parents[1] / "data" / "cassettes"
 RECORDED = CASSETTES / "ground_driving.json"
 RECORDED_PATHS = CASSETTES / "ground_driving_paths.json"
 # What the offline model (Qwen2.5-Coder-1.5B, Q4_K_M) answered, as observed when recording:
-# key -> (grounder, model parts, verdict status)
-# its FSMs asked for `moving(ego, min_speed=10)` from an ego that drives at exactly 10 m/s, kept
-# doing so when re-asked, and fell back to the rules (verified); for the red light its own FSM
-# wants the light green again after red, which never happens (a recorded, honest failure).
+# key -> (grounder, model parts, verdict status). Its FSMs for the jaywalker and the ambulance ask
+# `moving(ego, min_speed=10)` of an ego that drives at most 10 m/s (and a siren on the ego), keep
+# doing so when re-asked, and the rules replace them; for the red light its own FSM wants the light
+# green again after red, which never happens (a recorded, honest failure).
 OBSERVED: dict[str, tuple[str, str, str]] = {
     "jaywalker": ("model+rules", "narrative,roles", "verified"),
     "ambulance": ("model+rules", "narrative,roles", "verified"),
@@ -384,8 +417,7 @@ def test_recorded_model_answers_ground_simulate_and_verify(key, tmp_path):
     scenario = r.scenario()
     assert (scenario.world["grounder"], scenario.world["model_parts"]) == (grounder, parts)
     assert r.verdict.status == status, r.verdict.reason
-    if "fsm" not in parts:
-        assert "never holds" in scenario.world["grounding_notes"]
-        assert scenario.fsm == rule_based_fsm(roles_of(scenario), template_of(scenario))
+    if key == "red_light":  # the rules added the green before the model's "turning_red"
+        assert r.verdict.first_unmet_stage == 5 and "turning_green" in r.verdict.reason
     else:
-        assert r.verdict.first_unmet_stage == 4 and "turning_green" in r.verdict.reason
+        assert any("ground_fsm" in f and "used the rules" in f for f in r.verdict.fallbacks)

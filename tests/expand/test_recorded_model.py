@@ -21,7 +21,15 @@ CASES = {
                        Limits(max_depth=1, max_causes=3, max_entities=3)),
     "expand_manipulation": (Behavior(text="the robot opens the door", domain="manipulation", reward="open_door"),
                             Limits(max_depth=1, max_causes=3, max_entities=3)),
+    "expand_manipulation_faucet": (Behavior(text="the robot turns on the faucet", domain="manipulation",
+                                            reward="adjust_faucet"),
+                                   Limits(max_depth=1, max_causes=3, max_entities=3)),
+    "expand_manipulation_lamp": (Behavior(text="the robot turns on the lamp", domain="manipulation",
+                                          reward="turn_on_lamp"),
+                                 Limits(max_depth=1, max_causes=3, max_entities=3)),
 }
+# words of the robot's own command, programming, sensing or mechanics: never an accepted cause
+MECHANICAL = ("programmed", "commanded", "instructed", "the robot's", "robot detects", "robot senses")
 
 
 def _check(graph: ScenarioGraph) -> None:
@@ -48,9 +56,22 @@ def test_expansion_replays_recorded_offline_model_answers(name: str) -> None:
     causes = [n for n in graph.events(None) if n.id != graph.root]
     assert causes, "the recorded model proposed causes"
     paths = graph.paths()
-    assert paths, "at least one simulatable cause chain"
-    for p in paths:
-        assert p.events[-1] == behavior.text and p.entities
+    accepted = [n.label for n in causes if n.status == "accepted"]
+    if graph.behavior.domain == "manipulation":
+        # no accepted cause restates the robot's own mechanics, whatever the small model proposed
+        assert not [a for a in accepted if any(w in a.lower() for w in MECHANICAL)], accepted
+    if name == "expand_manipulation":
+        # with the domain's worked example the offline model proposes contexts of the paper's kind
+        # (and one mechanical cause, rejected by the rule with its reason kept on the graph)
+        assert set(accepted) == {"The pet is waiting outside to come in",
+                                 "The room is stuffy and needs fresh air"}
+        assert all(p.entities for p in paths) and len(paths) == 2
+    if name == "expand_manipulation_lamp":
+        assert paths == []  # the small model gave no acceptable context: recorded as it is
+    if name in ("expand_driving", "expand_manipulation"):
+        assert paths, "at least one simulatable cause chain"
+        for p in paths:
+            assert p.events[-1] == behavior.text and p.entities
 
 
 @pytest.mark.model

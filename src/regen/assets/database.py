@@ -98,8 +98,7 @@ def similarity(name: str, key: str) -> float:
     0.6 plus 0.4 times the share of words they have in common ('watering plant'
     / 'plant': 0.8; 'coffee cup' / 'cup': 0.8; 'watering can' / 'trash can': 0.73); otherwise
     only near-identical spellings count ('ambulence' / 'ambulance': 0.89), never a shared
-    modifier ('storage furniture' / 'storage box': 0; 'road' / 'road block': 0). A name with a
-    prepositional tail is also compared by its main phrase ('cup of coffee' -> 'cup').
+    modifier ('storage furniture' / 'storage box': 0; 'road' / 'road block': 0).
     """
     n, k = name_words(name), name_words(key)
     if not n or not k:
@@ -193,16 +192,20 @@ class AssetDatabase(Model):
         return best if best is not None and best.similarity >= threshold else None
 
     def closest(self, name: str) -> AssetMatch | None:
-        """The most similar asset to ``name`` whatever the score (None when nothing is alike)."""
+        """The most similar asset to ``name`` whatever the score (None when nothing is alike).
+        A name with a prepositional tail is also compared by its main phrase ('cup of coffee'
+        -> 'cup')."""
         best: AssetMatch | None = None
+        top = 0.0
         names = [name, *(p for p in _main_phrases(name) if p != name.lower())]
         for aid, spec in self.assets.items():
             keys = [("id", aid), *(("alias", a) for a in spec.aliases)]
             keys += [("description", d) for d in _main_phrases(spec.description)]
             for via, key in keys:
-                score = max(similarity(n, key) for n in names) * (DESCRIPTION_WEIGHT if via == "description" else 1.0)
-                if score > 0 and (best is None or score > best.similarity):
-                    best = AssetMatch(asset=aid, similarity=round(score, 2), via=via, key=key)
+                score = max(similarity(n, key) for n in names)
+                score *= DESCRIPTION_WEIGHT if via == "description" else 1.0
+                if score > top:  # strictly better: ties keep the earlier asset
+                    top, best = score, AssetMatch(asset=aid, similarity=round(score, 2), via=via, key=key)
         return best
 
     def category_of(self, asset: str) -> str | None:

@@ -1,8 +1,8 @@
 """The actors around the ego: what grounding chose for each, and facts about their assets.
 
 A :class:`RoleChoice` is one actor as grounding decided it (asset, motion primitive, start
-location, speed class, property values); an :class:`ActorSpec` adds the asset's size, which the
-solver and the planner need. What a primitive does lives in :mod:`regen.driving.primitives`.
+location, speed class, property values, and which of these the causal graph fixed); an
+:class:`ActorSpec` adds the asset's size, which the solver and the planner need. What a primitive does lives in :mod:`regen.driving.primitives`.
 """
 
 from __future__ import annotations
@@ -14,6 +14,8 @@ from dataclasses import dataclass, field
 PEDESTRIAN_ASSETS = frozenset({"adult", "child", "pedestrian_group"})
 # Static objects that are vehicles: a Scenic Car, parked half on the curb.
 PARKED_ASSETS = frozenset({"parked_car"})
+# The graph's properties that say how an actor moves; the ones it sets are binding on grounding.
+GRAPH_CHOICES = ("behavior", "start_location", "target_speed")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -26,6 +28,16 @@ class RoleChoice:
     location: str  # start location, relative to the ego
     speed_class: str  # 'slow', 'moderate' or 'fast'
     properties: dict[str, str] = field(default_factory=dict)
+    # what the causal graph decided, binding on grounding: a subset of GRAPH_CHOICES (the
+    # property values in ``properties`` always come from the graph)
+    fixed: frozenset[str] = frozenset()
+
+    def graph_choices(self) -> dict[str, str]:
+        """The graph's fixed choices of this actor as {property: value}, e.g.
+        {'behavior': 'cross_the_road', 'start_location': 'roadside_ahead'}."""
+        values = {"behavior": self.primitive, "start_location": self.location,
+                  "target_speed": self.speed_class}
+        return {k: values[k] for k in GRAPH_CHOICES if k in self.fixed}
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -46,4 +58,4 @@ def scenic_class(asset: str, kind: str) -> str:
     return "Car"
 
 
-__all__ = ["PARKED_ASSETS", "PEDESTRIAN_ASSETS", "ActorSpec", "RoleChoice", "scenic_class"]
+__all__ = ["GRAPH_CHOICES", "PARKED_ASSETS", "PEDESTRIAN_ASSETS", "ActorSpec", "RoleChoice", "scenic_class"]

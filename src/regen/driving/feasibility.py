@@ -17,8 +17,9 @@ from regen.driving.properties import state_schedules
 from regen.verify.predicates import PredicateSpec, list_predicates
 
 # Left out of the model's menu: `state_is` duplicates the property predicates with free-text
-# keys, and `collided` asks for a crash that placements are solved to avoid.
-HIDDEN_PREDICATES = {"state_is", "collided"}
+# keys, and `collided`, `collides` and `collision` ask for a crash that placements are solved to
+# avoid (they stay in the library for verification and behavior tests).
+HIDDEN_PREDICATES = {"state_is", "collided", "collides", "collision"}
 _PROPERTY_PREDICATES = {"siren_on", "door_open", "hazard_lights_on", "light_is", "signal_degraded"}
 
 

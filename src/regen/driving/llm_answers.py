@@ -4,7 +4,8 @@ Two small, flat schemas (the offline model is a 1.5B model with schema-constrain
 
 * roles: a narrative plus, per actor, ``<actor>_behavior``, ``<actor>_start`` and
   ``<actor>_speed``, each a ``Literal`` of what the asset supports, the primitive library
-  implements and the ego's map can host;
+  implements and the ego's map can host; only those the causal graph left open (what it
+  chose is binding and is not asked);
 * FSM: a list of abstract states ``{"stage", "actor", "name", "holds"}``. Each state carries the
   number of the stage it belongs to, so a stage can never name a state that does not exist;
   ``holds`` are 1-3 predicate calls written as ``name(a, b, param=value)`` with an optional
@@ -51,13 +52,13 @@ _CALL = re.compile(r"^(not )?([a-z_]+)\(([a-z0-9_]+)(?:, ?([a-z0-9_]+))?"
 
 @dataclass(frozen=True, kw_only=True)
 class RoleOptions:
-    """What the model may choose for one actor (empty tuples: nothing to choose)."""
+    """What the model may choose for one actor (a single option: nothing to choose)."""
 
     name: str
     asset: str
     primitives: tuple[str, ...]
     locations: dict[str, tuple[str, ...]]  # primitive -> start locations the map can host
-    moves: bool  # whether a speed class means anything
+    moves: bool  # whether the model chooses a speed class (it moves; the graph left it open)
 
     @property
     def all_locations(self) -> tuple[str, ...]:
@@ -68,13 +69,19 @@ class RoleOptions:
 
 
 def role_options(role: RoleChoice, db: AssetDatabase, template: EgoTemplate) -> RoleOptions:
-    """The primitives and start locations ``role``'s asset supports on the ego's possible maps."""
+    """The primitives and start locations ``role``'s asset supports on the ego's possible maps,
+    within what the graph fixed (``role.fixed``): a fixed behavior or start is the only option."""
     if is_state_only(role.asset):
         return RoleOptions(name=role.name, asset=role.asset, primitives=(), locations={}, moves=False)
+    prims = (role.primitive,) if "behavior" in role.fixed else db.assets[role.asset].behaviors
     locations: dict[str, tuple[str, ...]] = {}
-    for prim in db.assets[role.asset].behaviors:
+    for prim in prims:
+        if "target_speed" in role.fixed and not get(prim).moves:
+            continue  # the graph gave it a speed: it moves
         ok = []
         for loc in get(prim).starts:
+            if "start_location" in role.fixed and loc != role.location:
+                continue
             trial = RoleChoice(name=role.name, asset=role.asset, primitive=prim, location=loc,
                                speed_class=role.speed_class)
             try:
@@ -84,8 +91,9 @@ def role_options(role: RoleChoice, db: AssetDatabase, template: EgoTemplate) -> 
             ok.append(loc)
         if ok:
             locations[prim] = tuple(ok)
+    moves = "target_speed" not in role.fixed and any(get(p).moves for p in locations)
     return RoleOptions(name=role.name, asset=role.asset, primitives=tuple(locations), locations=locations,
-                       moves=any(get(p).moves for p in locations))
+                       moves=moves)
 
 
 def _lit(values: tuple[str, ...]) -> Any:
@@ -104,10 +112,11 @@ def _narrative(text: str) -> str:
 
 def role_schema(options: list[RoleOptions], defaults: list[RoleChoice],
                 template: EgoTemplate) -> type[Answer]:
-    """The per-path roles schema: ``narrative`` and per actor behavior, start and speed.
+    """The per-path roles schema: ``narrative`` and, per actor, the behavior, start and speed
+    the graph left open (and that have more than one option).
 
-    ``defaults`` (the rule-based roles, same order as ``options``) fill what the model does
-    not choose (state-only objects, single options).
+    ``defaults`` (the rule-based roles, same order as ``options``: the graph's choices, else
+    defaults) fill what the model does not choose.
     """
     # No length bounds in the JSON schema: llama.cpp turns maxLength into a deeply nested
     # grammar rule that made constrained decoding ~4x slower; the validator bounds it instead.
@@ -142,7 +151,8 @@ def role_schema(options: list[RoleOptions], defaults: list[RoleChoice],
 
 
 def pick(answer: Any, o: RoleOptions, default: RoleChoice) -> tuple[str, str, str]:
-    """(primitive, start location, speed class) of one actor in a roles answer."""
+    """(primitive, start location, speed class) of one actor in a roles answer (the default's
+    where the answer has no field: the graph fixed it, or there is one option)."""
     if not o.primitives:
         return default.primitive, default.location, default.speed_class
     prim = getattr(answer, f"{o.name}_behavior", None) or o.primitives[0]
@@ -160,7 +170,7 @@ def chosen_roles(answer: Any, options: list[RoleOptions], defaults: list[RoleCho
     for o, d in zip(options, defaults, strict=True):
         prim, loc, speed = pick(answer, o, d)
         out.append(RoleChoice(name=d.name, asset=d.asset, primitive=prim, location=loc, speed_class=speed,
-                              properties=dict(d.properties)))
+                              properties=dict(d.properties), fixed=d.fixed))
     return out
 
 

@@ -1,16 +1,20 @@
 """Model grounding of a driving cause path: the model writes the roles, narrative and FSM.
 
 Two calls per path, each with a small flat schema built for that path
-(:mod:`regen.driving.llm_answers`): (1) the narrative and, per actor, its motion primitive,
-start location and speed class; (2) the FSM as abstract states over the fixed predicate
-library, each with its stage number. Everything is validated; the LLM layer re-asks on a
-validation error. What is still unusable after that falls back to the rule-based part:
+(:mod:`regen.driving.llm_answers`): (1) the narrative and, per actor, the motion primitive,
+start location and speed class the causal graph left open (what it chose is binding and not
+asked); (2) the FSM as abstract states over the fixed predicate library, each with its stage
+number. Everything is validated; the LLM layer re-asks on a validation error. What is still
+unusable after that falls back to the rule-based part:
 
 * roles: the rule-based roles when the answer never validated, when no map can host the
   model's roles, or when their placement is infeasible but the rule-based one is not;
 * narrative: the chain of events as a sentence;
-* FSM: :func:`regen.driving.fsm_rules.rule_based_fsm` when the answer never validated or the
-  monitor's own check rejects it.
+* FSM: :func:`regen.driving.fsm_rules.rule_based_fsm` when the answer never validated (and,
+  from then on, for every later path grounded with the same LLM client: it is not asked again)
+  or the monitor's own check rejects it; a model FSM that lacks the cause states of an actor before
+  the ego's reaction gets them from the rules (:func:`~regen.driving.fsm_rules.with_cause_states`,
+  noted as "cause stages added by rules: ...").
 
 What came from where is recorded in ``scenario.world`` (``grounder`` = ``model`` |
 ``model+rules`` | ``rule-based``; ``model_parts``, ``rule_parts``, ``grounding_notes``, the
@@ -29,6 +33,7 @@ propagates unchanged: a replay or configuration problem is never hidden behind t
 from __future__ import annotations
 
 import logging
+import weakref
 from typing import TYPE_CHECKING, Any
 
 from regen.assets.database import AssetDatabase
@@ -38,6 +43,7 @@ from regen.driving.actors import RoleChoice
 from regen.driving.assets import database as driving_database
 from regen.driving.ego import EgoTemplate, template_for
 from regen.driving.feasibility import available
+from regen.driving.fsm_rules import CAUSES_ADDED, with_cause_states
 from regen.driving.ground import (
     build_scenario,
     default_narrative,
@@ -53,7 +59,7 @@ from regen.driving.llm_answers import (
     role_options,
     role_schema,
 )
-from regen.driving.locations import LOCATIONS
+from regen.driving.locations import LOCATIONS, location_from_text
 from regen.driving.primitives import get
 from regen.errors import ConfigError, GroundingError, MalformedAnswerError
 from regen.prompting import render
@@ -69,26 +75,50 @@ PURPOSE_ROLES = "ground_roles"
 PURPOSE_FSM = "ground_fsm"
 PARTS = ("narrative", "roles", "fsm")
 
+# LLM clients whose model failed the FSM schema (after its re-asks) in this process -> the
+# scenario where it did. The rules write their FSMs from then on: the small offline model that
+# fails once fails the same way again (it keeps the same impossible speed), and each failure
+# costs a call and its re-asks (about 100 s on a CPU).
+_FSM_FAILED: weakref.WeakKeyDictionary[LLM, str] = weakref.WeakKeyDictionary()
 
-def path_roles(path: CausePath, db: AssetDatabase) -> tuple[list[RoleChoice], list[str]]:
-    """Rule-based roles from the path, tolerant of start locations no rule can place and of
-    unsupported behaviors (those get defaults and a note). GroundingError for unknown assets
-    and contradictory property values: no answer can fix the path itself."""
-    notes: list[str] = []
-    return rule_based_roles(path, db, notes=notes), notes
+
+def path_roles(path: CausePath, db: AssetDatabase) -> list[RoleChoice]:
+    """The path's roles as the graph fixed them, with defaults for what it left open (the model
+    chooses those). :class:`UngroundableError` for a choice of the graph that no grounding can
+    honor, GroundingError for unknown assets and contradictory values: no answer can fix them,
+    so the model is not asked."""
+    return rule_based_roles(path, db)
 
 
 def _hints(pe_props: dict[str, list[str]]) -> str:
-    return ", ".join(f"{k}={' / '.join(v)}" for k, v in pe_props.items() if v)
+    """What the graph chose for one entity (start locations as the ids grounding uses)."""
+    out = []
+    for key, values in pe_props.items():
+        if key == "start_location":
+            values = [location_from_text(v) or v for v in values]
+        if values:
+            out.append(f"{key}={' / '.join(values)}")
+    return ", ".join(out)
+
+
+def _choices(o: RoleOptions, fields: set[str]) -> list[str]:
+    """The prompt's lines of what the model chooses for one actor (only the schema's fields)."""
+    if f"{o.name}_behavior" in fields:
+        return [f'{o.name}_behavior "{prim}" starts at: {", ".join(locs)}' for prim, locs in o.locations.items()]
+    if f"{o.name}_start" in fields:
+        return [f'{o.name}_start (for "{prim}"): {", ".join(locs)}' for prim, locs in o.locations.items()]
+    return []
 
 
 def roles_prompt(path: CausePath, options: list[RoleOptions], schema: type) -> str:
     db_assets = driving_database().assets
+    fields = set(schema.model_fields)
     actors = []
     for o, pe in zip(options, path.entities, strict=True):
         actors.append({"name": o.name, "description": db_assets[o.asset].description,
-                       "hints": _hints(pe.properties), "locations": o.locations})
-    used = dict.fromkeys(loc for o in options for loc in o.all_locations)
+                       "hints": _hints(pe.properties), "choices": _choices(o, fields)})
+    used = dict.fromkeys(loc for o in options if {f"{o.name}_behavior", f"{o.name}_start"} & fields
+                         for loc in o.all_locations)
     keys = list(schema.model_fields)
     keys = keys[1:] + keys[:1]  # the narrative last in the sentence, first in the JSON
     return render(PKG, "ground_roles", behavior=path.behavior.text, events=path.events,
@@ -118,7 +148,6 @@ class _Grounding:
     def __init__(self, llm: LLM):
         self.llm = llm
         self.source: dict[str, str] = {}
-        self.path_notes: list[str] = []  # what the path said that no rule could use
         self.fallbacks: list[str] = []  # what the rules wrote because the model's answer was unusable
         self.calls: list[str] = []
 
@@ -158,9 +187,8 @@ class _Grounding:
             "llm": self.llm.provider.id,
             "model_calls": ",".join(self.calls),
         })
-        notes = self.path_notes + self.fallbacks
-        if notes:
-            world["grounding_notes"] = "; ".join(notes)
+        if self.fallbacks:
+            world["grounding_notes"] = "; ".join(self.fallbacks)
         return scenario.model_copy(update={"world": world,
                                            "fallbacks": list(scenario.fallbacks) + self.fallbacks})
 
@@ -208,10 +236,16 @@ def _ground_fsm(g: _Grounding, scenario: Scenario, roles: list[RoleChoice]) -> F
     if scenario.solver.status == "infeasible":
         g.use("fsm", "rules", f"{PURPOSE_FSM}: not asked, the placement is infeasible")
         return None
+    failed = _FSM_FAILED.get(g.llm)
+    if failed is not None:
+        g.use("fsm", "rules", f"{PURPOSE_FSM}: not asked, the model failed its schema earlier with this "
+              f"client (scenario {failed}); used the rules")
+        return None
     template = template_of(scenario)
     schema = fsm_schema(roles, template)
     answer = g.ask(fsm_prompt(scenario.narrative, roles, template), schema, PURPOSE_FSM)
     if answer is None:
+        _FSM_FAILED[g.llm] = scenario.id
         g.use("fsm", "rules")
         return None
     try:
@@ -232,26 +266,32 @@ def ground_with_model(path: CausePath, llm: LLM, *, seed: int = 0,
                       db: AssetDatabase | None = None) -> Scenario:
     """Ground one cause path with the model's roles, narrative and FSM (two calls).
 
+    The model fills only what the path's graph left open; what the graph chose is binding.
     Unusable answers fall back to the rule-based parts (recorded in ``world`` and
-    ``scenario.fallbacks``). Raises :class:`GroundingError` only when the path itself cannot be
-    grounded (unknown asset, contradictory properties, no map for even the rule-based roles);
-    errors of the LLM layer other than a malformed answer (replay miss, unreachable provider,
-    provider error, missing key or model file) propagate unchanged, so a replay or configuration
-    problem is never silently hidden.
+    ``scenario.fallbacks``); cause stages the model's FSM lacks are added by the rules (recorded
+    there too, ``fsm_source`` = ``model+rules``). Raises :class:`UngroundableError` before any
+    call when a choice of the graph cannot be honored, :class:`GroundingError` when the path
+    itself cannot be grounded (unknown asset, contradictory properties); errors of the LLM layer
+    other than a malformed answer (replay miss, unreachable provider, provider error, missing key
+    or model file) propagate unchanged, so a replay or configuration problem is never silently
+    hidden.
     """
     db = db or driving_database()
     try:
         template = template_for(path.behavior.text, path.behavior.ego_template)
     except ConfigError as exc:
         raise GroundingError(str(exc)) from None
-    defaults, notes = path_roles(path, db)
+    defaults = path_roles(path, db)
     g = _Grounding(llm)
-    g.path_notes += [f"path: {n}; the model or a default chooses instead" for n in notes]
     scenario = _ground_roles(path, g, template, defaults, seed, db)
     roles = roles_of(scenario)
     fsm = _ground_fsm(g, scenario, roles)
     if fsm is not None:
-        scenario = Scenario.model_validate({**scenario.model_dump(), "fsm": fsm.model_dump()})
+        fsm, added = with_cause_states(fsm, roles, template_of(scenario))
+        if added:
+            g.fallbacks.append(f"{CAUSES_ADDED}{'; '.join(added)}")
+        scenario = Scenario.model_validate({**scenario.model_dump(), "fsm": fsm.model_dump(),
+                                            "fsm_source": "model+rules" if added else "model"})
     return g.finish(scenario)
 
 

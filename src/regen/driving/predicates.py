@@ -215,3 +215,6 @@ def _collided(trace: Trace, args: list[str], params: dict) -> np.ndarray:
         rb = sum(e * np.abs(np.sum(ax * axis, -1)) for e, ax in zip(ext_b, axes_b, strict=True))
         overlap &= np.abs(np.sum(d * axis, -1)) <= ra + rb
     return overlap
+
+
+from regen.driving import collision_predicates as _collision_predicates  # noqa: E402,F401 (registers collides, collision)

@@ -33,7 +33,9 @@ class Judged:
     accepted: dict[str, str] = field(default_factory=dict)  # candidate -> reason
     rejected: dict[str, str] = field(default_factory=dict)  # candidate -> reason
     unknown: dict[str, str] = field(default_factory=dict)  # names the model gave that were not offered
-    matched: dict[str, str] = field(default_factory=dict)  # accepted candidate -> how the model's name was matched
+    # accepted candidate -> (who matched the model's name to it: 'database' for an alias, 'rule'
+    # for a similarity guess, and how)
+    matched: dict[str, tuple[str, str]] = field(default_factory=dict)
 
 
 def _wording(domain: str):
@@ -134,11 +136,13 @@ def select_entities(llm: LLM, db: AssetDatabase, domain: str, chain: list[str]) 
     own = {w for w in name_words(robot) if db.resolve(w) is None}
     for ch in got.value.entities:
         target, how = _match(ch.name, options), None
+        if target is not None and normalize(ch.name).replace(" ", "_") != normalize(target).replace(" ", "_"):
+            how = ("rule", f"read '{ch.name}' as asset '{target}' (nearly the same name)")
         if target is None and (target := db.resolve(ch.name)) is not None:
-            how = f"resolved '{ch.name}' to asset '{target}' (one of its names in the database)"
+            how = ("database", f"resolved '{ch.name}' to asset '{target}' (one of its names in the database)")
         if target is None and own.isdisjoint(name_words(ch.name)):
             if (m := db.match(ch.name)) is not None:
-                target, how = m.asset, m.describe(ch.name)
+                target, how = m.asset, ("rule", m.describe(ch.name))
         if target is None:
             out.unknown[ch.name] = _unknown_reason(db, ch.name, robot, own)
         elif target not in out.accepted:

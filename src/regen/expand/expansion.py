@@ -85,18 +85,20 @@ class Expander:
 
     # --- phase 1: events --------------------------------------------------------------------
 
-    def _expand_one(self, graph: ScenarioGraph, nid: str, user: Sequence[str]) -> tuple:
+    def _expand_one(self, graph: ScenarioGraph, nid: str, user: Sequence[str],
+                    forced: Sequence[str] = ()) -> tuple:
         chain = self.chain(graph, nid)
         proposed, pid = edges.propose_events(self.llm, graph.behavior.domain, chain, prior=self.prior,
                                              max_causes=self.limits.max_causes)
-        everything = [*proposed, *user]
+        # insisted-on causes first, so a model proposal that duplicates one merges into the user's words
+        everything = [*forced, *proposed, *user]
         existing = [n.label for n in graph.nodes.values() if n.kind == "event"]
         fresh, merged = merge(everything, existing)
         judged = edges.judge_events(self.llm, graph.behavior.domain, chain, fresh) if fresh else None
-        return nid, proposed, pid, list(user), fresh, merged, judged
+        return nid, proposed, pid, [*forced, *user], fresh, merged, judged, list(forced)
 
     def _apply(self, graph: ScenarioGraph, result: tuple) -> list[str]:
-        nid, proposed, pid, user, fresh, merged, judged = result
+        nid, proposed, pid, user, fresh, merged, judged, forced = result
         src = graph.nodes[nid]
         new_ids: list[str] = []
         if not proposed and not user:
@@ -106,8 +108,9 @@ class Expander:
             target = graph.find("event", into)
             if target is not None and target.id != nid:
                 # a duplicate of an event already in the graph: try to link the existing node
-                self._link_existing(graph, target, src, text, pid)
+                self._link_existing(graph, target, src, text, pid, forced=text in forced)
             # duplicates among the new candidates are recorded on the kept one below
+        insisted = {c for c in fresh if c in forced or any(merged.get(f) == c for f in forced)}
         for cand in fresh:
             by = "user" if cand in user and cand not in proposed else "model"
             node = graph.add_node(Node(
@@ -119,32 +122,68 @@ class Expander:
                 node.history = node.history + [Decision(action="merged", by="rule",
                                                         reason="near-duplicates merged: " + "; ".join(dups))]
             assert judged is not None
-            if cand in judged.accepted:
-                reason = judged.accepted[cand]
-                if graph.would_cycle(node.id, nid):
-                    graph.add_edge(node.id, nid, status="rejected", decision=Decision(
-                        action="rejected", by="rule", reason="would create a cycle"))
-                    continue
-                node.status = "accepted"
-                graph.add_edge(node.id, nid, decision=Decision(action="accepted", by="model",
-                                                               call_id=judged.call_id, reason=reason))
-                node.history = node.history + [Decision(action="accepted", by="model",
-                                                        call_id=judged.call_id, reason=reason)]
-                new_ids.append(node.id)
+            plausible = cand in judged.accepted
+            opinion = judged.accepted[cand] if plausible else judged.rejected.get(cand, "not chosen")
+            if cand in insisted:
+                if self._accept(graph, node, nid, self._insisted(graph, cand, plausible, opinion,
+                                                                 judged.call_id)):
+                    new_ids.append(node.id)
+            elif plausible and (words := edges.restates_mechanics(graph.behavior.domain, cand)):
+                # the judge accepted it, but it is the robot's own doing, not a context
+                said = Decision(action="accepted", by="model", call_id=judged.call_id, reason=opinion)
+                self._reject(graph, node, nid, said)
+                self._reject(graph, node, nid, Decision(action="rejected", by="rule", reason=(
+                    f"restates the {edges.robot_word(graph.behavior.domain)}'s own command, "
+                    f"programming or mechanics ('{words}'), not a context in which it acts")))
+            elif plausible:
+                if self._accept(graph, node, nid, Decision(action="accepted", by="model",
+                                                           call_id=judged.call_id, reason=opinion)):
+                    new_ids.append(node.id)
             else:
-                reason = judged.rejected.get(cand, "not chosen")
-                if node.status != "accepted":
-                    node.status = "rejected"
-                node.history = node.history + [Decision(action="rejected", by="model",
-                                                        call_id=judged.call_id, reason=reason)]
-                graph.add_edge(node.id, nid, status="rejected", decision=Decision(
-                    action="rejected", by="model", call_id=judged.call_id, reason=reason))
+                self._reject(graph, node, nid, Decision(action="rejected", by="model",
+                                                        call_id=judged.call_id, reason=opinion))
         return new_ids
 
-    def _link_existing(self, graph: ScenarioGraph, target: Node, src: Node, text: str, pid: str) -> None:
+    @staticmethod
+    def _insisted(graph: ScenarioGraph, cand: str, plausible: bool, opinion: str,
+                  call_id: str | None) -> Decision:
+        """The user's acceptance of a cause given with --cause, carrying the judge's opinion."""
+        reason = (f"given with --cause, accepted without judging; the judge said it is "
+                  f"{'plausible' if plausible else 'implausible'}: {opinion}")
+        if words := edges.restates_mechanics(graph.behavior.domain, cand):
+            reason += f"; the mechanics rule would have rejected it ('{words}')"
+        return Decision(action="accepted", by="user", call_id=call_id, reason=reason)
+
+    @staticmethod
+    def _accept(graph: ScenarioGraph, node: Node, nid: str, decision: Decision) -> bool:
+        """Accept ``node`` as a cause of ``nid``; False when that would close a cycle."""
+        if graph.would_cycle(node.id, nid):
+            graph.add_edge(node.id, nid, status="rejected", decision=Decision(
+                action="rejected", by="rule", reason="would create a cycle"))
+            return False
+        node.status = "accepted"
+        graph.add_edge(node.id, nid, decision=decision)
+        node.history = node.history + [decision]
+        return True
+
+    @staticmethod
+    def _reject(graph: ScenarioGraph, node: Node, nid: str, decision: Decision) -> None:
+        """Record ``decision`` against ``node`` as a cause of ``nid`` (kept in the graph, marked)."""
+        if node.status != "accepted":  # accepted as the cause of another event: it stays so
+            node.status = "rejected"
+        node.history = node.history + [decision]
+        graph.add_edge(node.id, nid, status="rejected", decision=decision)
+
+    def _link_existing(self, graph: ScenarioGraph, target: Node, src: Node, text: str, pid: str,
+                       *, forced: bool = False) -> None:
         note = Decision(action="merged", by="rule", call_id=pid,
                         reason=f"'{text}' proposed as a cause of '{src.label}' duplicates this event")
         target.history = target.history + [note]
+        if forced and target.status != "accepted":
+            # the user insists on a cause the graph holds already, rejected: it is accepted now
+            self._accept(graph, target, src.id, Decision(
+                action="accepted", by="user", reason=f"given with --cause as '{text}'"))
+            return
         if target.status != "accepted":
             return
         if graph.would_cycle(target.id, src.id):
@@ -153,7 +192,8 @@ class Expander:
         else:
             graph.add_edge(target.id, src.id, decision=note)
 
-    def expand_events(self, graph: ScenarioGraph, candidates: Sequence[str] = ()) -> None:
+    def expand_events(self, graph: ScenarioGraph, candidates: Sequence[str] = (),
+                      forced_causes: Sequence[str] = ()) -> None:
         frontier = [n.id for n in graph.events() if not graph.causes_of(n.id)
                     and n.depth < self.limits.max_depth]
         first = True
@@ -162,8 +202,10 @@ class Expander:
                 raise _Stop(f"max_nodes ({self.limits.max_nodes}) reached")
             self._check(graph)
             user = list(candidates) if first else []
+            forced = list(forced_causes) if first else []
             results = self.llm.map(
-                lambda nid, user=user: self._expand_one(graph, nid, user if nid == graph.root else []),
+                lambda nid, user=user, forced=forced: self._expand_one(
+                    graph, nid, *((user, forced) if nid == graph.root else ([], []))),
                 frontier)
             nxt: list[str] = []
             for res in results:
@@ -187,18 +229,22 @@ class Expander:
             lambda n: edges.select_entities(self.llm, self.db, graph.behavior.domain,
                                             self.chain(graph, n.id)), todo)
         for ev, judged in zip(todo, results, strict=True):
-            for name in judged.unknown:
+            for name, why in judged.unknown.items():
                 bad = graph.add_node(Node(
                     id=node_id("entity", name, ev.id), kind="entity", label=name, status="rejected",
                     history=[Decision(action="rejected", by="database", call_id=judged.call_id,
-                                      reason=f"'{name}' is not in the {self.db.name} asset database")]))
+                                      reason=why)]))
                 graph.add_edge(bad.id, ev.id, status="rejected", decision=bad.history[-1])
             chosen = list(judged.accepted.items())[: self.limits.max_entities]
             for name, reason in chosen:
+                history = [Decision(action="accepted", by="model", call_id=judged.call_id, reason=reason)]
+                if name in judged.matched:
+                    # the model used another name: an alias of the asset, or the closest asset
+                    by, how = judged.matched[name]
+                    history.insert(0, Decision(action="merged", by=by, call_id=judged.call_id, reason=how))
                 ent = graph.add_node(Node(
                     id=node_id("entity", name, ev.id), kind="entity", label=name, asset=name,
-                    status="accepted", depth=ev.depth,
-                    history=[Decision(action="accepted", by="model", call_id=judged.call_id, reason=reason)]))
+                    status="accepted", depth=ev.depth, history=history))
                 graph.add_edge(ent.id, ev.id, decision=ent.history[-1])
             if not chosen:
                 ev.status = "unsimulatable"
@@ -267,10 +313,11 @@ class Expander:
 
     # --- all --------------------------------------------------------------------------------
 
-    def run(self, graph: ScenarioGraph, candidates: Sequence[str] = ()) -> ScenarioGraph:
+    def run(self, graph: ScenarioGraph, candidates: Sequence[str] = (),
+            forced_causes: Sequence[str] = ()) -> ScenarioGraph:
         try:
             try:
-                self.expand_events(graph, candidates)
+                self.expand_events(graph, candidates, forced_causes)
             except _Stop as stop:
                 graph.stop_reason = stop.reason
             # entities and properties for what the event phase found (budget permitting)
@@ -287,6 +334,7 @@ class Expander:
 
 def expand(behavior: Behavior, llm: LLM, *, database: AssetDatabase | None = None,
            limits: Limits | None = None, prior: str | None = None, candidates: Sequence[str] = (),
+           forced_causes: Sequence[str] = (),
            on_update: Callable[[ScenarioGraph, str], None] | None = None,
            should_stop: Callable[[], bool] | None = None,
            graph: ScenarioGraph | None = None) -> ScenarioGraph:
@@ -298,7 +346,10 @@ def expand(behavior: Behavior, llm: LLM, *, database: AssetDatabase | None = Non
         database: asset database; the domain's built-in one by default.
         limits: stopping rules (depth, nodes, calls, tokens) and sizes.
         prior: optional natural-language prior for event proposal (e.g. 'police car').
-        candidates: user-given candidate causes of the behavior, judged with the model's.
+        candidates: user-given candidate causes of the behavior, judged with the model's (a
+            rejected one stays in the graph with the judge's reason).
+        forced_causes: user-given causes of the behavior accepted whatever the judge says (it is
+            still asked; its opinion is kept in the node's history), then expanded like any other.
         on_update: called with the graph after each phase step (to save it).
         should_stop: polled before each step; True stops expansion gracefully.
         graph: continue a saved graph instead of starting anew.
@@ -309,4 +360,9 @@ def expand(behavior: Behavior, llm: LLM, *, database: AssetDatabase | None = Non
         database = domains.make(behavior.domain).database()
     g = graph or ScenarioGraph.start(behavior)
     return Expander(llm, database, limits, prior=prior, on_update=on_update,
-                    should_stop=should_stop).run(g, candidates)
+                    should_stop=should_stop).run(g, _tidy(candidates), _tidy(forced_causes))
+
+
+def _tidy(texts: Sequence[str]) -> list[str]:
+    """User-given causes with their whitespace collapsed; blank ones dropped."""
+    return [" ".join(t.split()) for t in texts if t and t.strip()]

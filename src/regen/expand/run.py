@@ -42,6 +42,7 @@ def load_graph(path: Path) -> ScenarioGraph:
 
 def run_expand(behavior: Behavior, llm: LLM, out: Path, *, limits: Limits | None = None,
                prior: str | None = None, candidates: Sequence[str] = (),
+               forced_causes: Sequence[str] = (),
                on_update: Callable[[ScenarioGraph, str], None] | None = None) -> ExpandResult:
     """Expand and save. The graph is saved after every step, so an interrupt or crash keeps it;
     a rerun replays cached model answers and so rebuilds the same graph quickly."""
@@ -52,5 +53,6 @@ def run_expand(behavior: Behavior, llm: LLM, out: Path, *, limits: Limits | None
         if on_update:
             on_update(graph, what)
 
-    graph = expand(behavior, llm, limits=limits, prior=prior, candidates=candidates, on_update=saver)
+    graph = expand(behavior, llm, limits=limits, prior=prior, candidates=candidates,
+                   forced_causes=forced_causes, on_update=saver)
     return ExpandResult(graph=graph, files=save_graph(graph, out))

@@ -25,8 +25,11 @@ class ManipulationBackend(DomainBackend):
     wording = Wording(
         expert="household robot manipulation and home environments",
         situation="home",
-        cause_rule=("Each cause must be a purpose or a situation in the home that makes the robot do "
-                    "this (for example who or what benefits), not the robot's own mechanics."),
+        # a worked example: without one the offline 1.5B model proposes the robot's own programming
+        cause_rule=("Each cause must be a situation in the home, or a need of a person, pet or plant, "
+                    "that makes the robot do this, for example \"the pet is waiting outside to come in\" "
+                    "or \"the room is stuffy and needs fresh air\". Never the robot's own command, "
+                    "instruction, programming, sensors or mechanics."),
         value_hint='relative to the robot, the table or furniture, e.g. "on the table left of the robot"',
         # causes that restate the robot's orders, programming, sensors or mechanics (rejected after
         # the judge); "the robot" is this robot, not "a robot vacuum" in the room
@@ -46,6 +49,7 @@ class ManipulationBackend(DomainBackend):
             r"routine|task\s+list|timer|clock|memory|mechanics?|mechanism)\b",
             r"(?:^|\bthe\s+|\bthis\s+)robot\b.*\bits\s+(?:own\s+)?(?:\w+\s+)?(?:sensors?|cameras?|battery|"
             r"programming|program|software|firmware|schedule|routine)\b",
+            r"(?:^|\bthe\s+|\bthis\s+)robot\s+(?:detects|detected|senses|sensed|measures|measured)\b",
             r"(?:^|\bthe\s+|\bthis\s+)robot\s+(?:\w+\s+)?(?:malfunctions?|malfunctioned|breaks\s+down|"
             r"broke\s+down|glitch\w*|reboots?|rebooted|crashes|crashed|overheats?|shuts\s+down|"
             r"needs\s+to\s+(?:re)?charge|is\s+(?:low\s+on|out\s+of)\s+(?:battery|power))\b",

@@ -363,7 +363,8 @@ def build_fsm(behavior: BehaviorDef, fname: str, item: str | None, requests: lis
     first: list[StateRef] = []
     last: list[StateRef] = []
     for r in requests:
-        states.append(AbstractState(name="placed", actor=r.name,
+        # the context is the cause: it holds before the robot acts (stage 1) and still at the end
+        states.append(AbstractState(name="placed", actor=r.name, cause=True,
                                     all_of=[relation_call(r.name, r.relation, r.reference)]))
         first.append(StateRef(actor=r.name, state="placed"))
         last.append(StateRef(actor=r.name, state="placed"))

@@ -9,7 +9,7 @@ from regen.driving.actors import ActorSpec, RoleChoice
 from regen.driving.assets import database
 from regen.driving.ego import EGO_TEMPLATES
 from regen.driving.feasibility import never_holds
-from regen.driving.fsm_rules import rule_based_fsm
+from regen.driving.fsm_rules import is_reaction, rule_based_fsm, with_cause_states
 from regen.driving.ground import check_roles, choose_map, default_location
 from regen.driving.locations import LOCATIONS
 from regen.driving.primitives import for_actor, get, is_state_only, registry
@@ -138,3 +138,17 @@ def test_rule_states_name_only_predicates_that_can_hold(name):
                 assert len(call.args) == library[call.name].arity, call
                 if state.actor == role.name:
                     assert never_holds(call, {role.name: role}, t) is None, (t.id, role, str(call))
+
+
+@pytest.mark.parametrize("name", SPECS)
+def test_every_actor_has_cause_states_before_the_egos_reaction(name):
+    """Whatever it does, an actor shows its cause in the rule FSM: marked cause states, each in
+    a stage of its own before the ego's first reaction, so that adding them changes nothing."""
+    for t, role in _roles(name, variants=True):
+        fsm = rule_based_fsm([role], t)
+        causes = [k for k, st in enumerate(fsm.stages) for c in st.conditions if fsm.state(c.actor, c.state).cause]
+        reactions = [k for k, st in enumerate(fsm.stages) for c in st.conditions
+                     if is_reaction(fsm.state(c.actor, c.state), t)]
+        assert causes and reactions and max(causes) < min(reactions), (t.id, role)
+        assert all(len(fsm.stages[k].conditions) == 1 for k in causes)
+        assert with_cause_states(fsm, [role], t) == (fsm, []), (t.id, role)

@@ -35,11 +35,22 @@ def approach(*, early: float, late: float) -> Constrain:
     return add
 
 
-def rule_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:
+def _through(r: RoleChoice, *, turns: bool) -> RuleStates:
     a = r.name
+    inside = [pred("in_junction", a), pred("moving", a)] + ([pred("turning", a)] if turns else [])
     return RuleStates(
         initial=("approaching_junction", [pred("moving", a), pred("in_junction", a, negate=True)]),
-        cause=("in_junction", [pred("in_junction", a), pred("moving", a)]))
+        cause=(("in_junction", inside),))
+
+
+def rule_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:
+    """Approaching, then driving straight through the junction (run_red_light)."""
+    return _through(r, turns=False)
+
+
+def turning_rule_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:
+    """Approaching, then turning in the junction (turn_left, turn_right)."""
+    return _through(r, turns=True)
 
 
 def cross_street_start(placed: Placed) -> Point:
@@ -60,4 +71,5 @@ def drive_through(placed: Placed, heading: float, route: list[Point]) -> ActorPl
     return placed.actor_plan(x=x, y=y, heading=heading, speed0=v, route=route, schedule=[(0.0, v, 0.0)])
 
 
-__all__ = ["EXIT_LENGTH", "approach", "cross_street_start", "drive_through", "oncoming_start", "rule_states"]
+__all__ = ["EXIT_LENGTH", "approach", "cross_street_start", "drive_through", "oncoming_start", "rule_states",
+           "turning_rule_states"]

@@ -53,10 +53,16 @@ State = tuple[str, list[PredicateCall]]  # (state name, predicates that all hold
 
 @dataclass(frozen=True, kw_only=True)
 class RuleStates:
-    """An actor's states in the rule-based FSM: before the cause, as the cause, at the end."""
+    """An actor's states in the rule-based FSM: before the cause, as the cause, at the end.
+
+    ``cause`` holds the states, in order, that together show the cause playing out: its
+    defining motion, not just a place (a crossing pedestrian moving in the ego's lane ahead; a
+    vehicle first in the next lane ahead, then in the ego's lane). Every actor of a path has at
+    least one; each becomes a stage of its own before the ego's reaction, in every driving FSM.
+    """
 
     initial: State | None = None
-    cause: State | None = None
+    cause: tuple[State, ...] = ()
     final: State | None = None
 
 

@@ -22,8 +22,10 @@ def _constrain(m: PlacementModel, a: ActorSpec, speeds: tuple[float, float]) -> 
 
 def _rule_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:
     a, e = r.name, "ego"
-    return RuleStates(initial=("ahead_in_next_lane", [pred("ahead_of", a, e), pred("adjacent_lane", a, e)]),
-                      cause=("in_ego_lane", [pred("in_front", a, e, distance=40.0)]))
+    # the lane change is shown by the order: in the next lane ahead, then in the ego's lane ahead
+    return RuleStates(cause=(("ahead_in_next_lane", [pred("ahead_of", a, e), pred("adjacent_lane", a, e),
+                                                     pred("moving", a)]),
+                             ("in_ego_lane", [pred("in_front", a, e, distance=40.0), pred("moving", a)])))
 
 
 SPEC = VehiclePrimitive(name="change_lane", starts=("ahead_adjacent_lane",), leaves_line=True,

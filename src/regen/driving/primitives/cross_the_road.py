@@ -62,10 +62,12 @@ def _plan(placed: Placed) -> ActorPlan:
 
 
 def _rule_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:
-    a = r.name
+    a, e = r.name, "ego"
+    # walking in the ego's lane ahead of it: it crosses the ego's path (merely on the road or
+    # in front of the ego would also hold for one that stands there or walks along the road)
     return RuleStates(initial=("waiting", [pred("on_sidewalk", a)]),
-                      cause=("crossing", [pred("on_road", a), pred("moving", a, min_speed=0.3),
-                                          pred("ahead_of", a, "ego")]))
+                      cause=(("crossing", [pred("same_lane", a, e), pred("ahead_of", a, e),
+                                           pred("moving", a, min_speed=0.3)]),))
 
 
 SPEC = PedestrianPrimitive(name="cross_the_road",

@@ -25,8 +25,9 @@ def _constrain(m: PlacementModel, a: ActorSpec, speeds: tuple[float, float]) -> 
 
 def _rule_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:
     a, e = r.name, "ego"
-    return RuleStates(initial=("overtaking", [pred("behind", a, e), pred("adjacent_lane", a, e)]),
-                      cause=("cut_in", [pred("same_lane", a, e), pred("ahead_of", a, e)]))
+    # the cut-in is shown by the order: behind in the next lane, then in the ego's lane ahead
+    return RuleStates(cause=(("overtaking", [pred("behind", a, e), pred("adjacent_lane", a, e), pred("moving", a)]),
+                             ("cut_in", [pred("same_lane", a, e), pred("ahead_of", a, e), pred("moving", a)])))
 
 
 SPEC = VehiclePrimitive(name="cut_in", starts=("behind_adjacent_lane",), leaves_line=True,

@@ -95,38 +95,48 @@ def _oncoming(m: PlacementModel, a: ActorSpec, s: Any, v: Any, s_te: Any) -> Non
 
 def _leading_states(a: str, t: EgoTemplate) -> RuleStates:
     e = "ego"
-    if t.stops:
+    if t.stops:  # it brakes in front of the ego
         return RuleStates(initial=("leading", [pred("in_front", a, e, distance=60.0), pred("moving", a)]),
-                          cause=("braking", [pred("braking", a, min_decel=3.0)]),
+                          cause=(("braking", [pred("braking", a, min_decel=3.0),
+                                              pred("in_front", a, e, distance=60.0)]),),
                           final=("stopped_ahead", [pred("stopped", a), pred("ahead_of", a, e)]))
-    if t.speed_event == 0.0:
+    if t.speed_event == 0.0:  # it waits in front of the ego, then departs
         return RuleStates(
-            initial=("waiting_ahead", [pred("stopped", a), pred("in_front", a, e, distance=20.0)]),
-            cause=("departing", [pred("moving", a), pred("ahead_of", a, e)]))
+            cause=(("waiting_ahead", [pred("stopped", a), pred("in_front", a, e, distance=20.0)]),
+                   ("departing", [pred("moving", a), pred("in_front", a, e, distance=30.0)])))
+    # a slower lead in the ego's lane that the ego catches up with
     return RuleStates(initial=("leading", [pred("ahead_of", a, e), pred("moving", a)]),
-                      cause=("close_ahead", [pred("in_front", a, e, distance=40.0)]))
+                      cause=(("close_ahead", [pred("in_front", a, e, distance=40.0), pred("moving", a),
+                                              pred("slower_than", a, max_speed=t.speed_event - 2.0)]),))
 
 
 def _following_states(a: str, t: EgoTemplate) -> RuleStates:
-    return RuleStates(initial=("following", [pred("behind", a, "ego"), pred("moving", a)]),
-                      final=("behind_ego", [pred("behind", a, "ego")]))
+    e = "ego"
+    return RuleStates(initial=("following", [pred("behind", a, e), pred("moving", a)]),
+                      cause=(("close_behind", [pred("behind", a, e), pred("same_lane", a, e),
+                                               pred("close_to", a, e, distance=40.0)]),),
+                      final=("behind_ego", [pred("behind", a, e)]))
 
 
 def _next_lane_states(a: str, t: EgoTemplate) -> RuleStates:
     e = "ego"
-    return RuleStates(initial=("ahead_in_next_lane", [pred("ahead_of", a, e), pred("adjacent_lane", a, e)]))
+    return RuleStates(cause=(("ahead_in_next_lane", [pred("ahead_of", a, e), pred("adjacent_lane", a, e),
+                                                     pred("moving", a)]),))
 
 
 def _overtaking_states(a: str, t: EgoTemplate) -> RuleStates:
     e = "ego"
     return RuleStates(initial=("approaching", [pred("behind", a, e), pred("moving", a)]),
-                      cause=("close_behind", [pred("behind", a, e), pred("close_to", a, e, distance=30.0)]),
+                      cause=(("close_behind", [pred("behind", a, e), pred("adjacent_lane", a, e),
+                                               pred("close_to", a, e, distance=30.0)]),),
                       final=("passing", [pred("ahead_of", a, e), pred("moving", a)]))
 
 
 def _oncoming_states(a: str, t: EgoTemplate) -> RuleStates:
-    return RuleStates(initial=("oncoming", [pred("ahead_of", a, "ego"), pred("moving", a)]),
-                      cause=("close", [pred("close_to", a, "ego", distance=25.0)]))
+    e = "ego"
+    return RuleStates(initial=("oncoming", [pred("ahead_of", a, e), pred("moving", a)]),
+                      cause=(("close", [pred("ahead_of", a, e), pred("moving", a),
+                                        pred("close_to", a, e, distance=25.0)]),))
 
 
 def _steady(placed: Placed) -> tuple[float, float]:

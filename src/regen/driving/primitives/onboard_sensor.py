@@ -29,7 +29,7 @@ def _plan(placed: Placed) -> ActorPlan:
 def _rule_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:
     a = r.name
     return RuleStates(initial=("nominal", [pred("signal_degraded", a, negate=True)]),
-                      cause=("degraded", [pred("signal_degraded", a)]))
+                      cause=(("degraded", [pred("signal_degraded", a)]),))
 
 
 SPEC = Primitive(

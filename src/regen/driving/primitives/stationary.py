@@ -7,7 +7,7 @@ from typing import Any
 
 from regen.driving.actors import ActorSpec, RoleChoice
 from regen.driving.cpsat import DM, PlacementModel
-from regen.driving.ego import JUNCTION_CX, EgoTemplate
+from regen.driving.ego import EGO_SIZE, JUNCTION_CX, EgoTemplate
 from regen.driving.locations import LOCATIONS
 from regen.driving.maps import JUNCTION_RADIUS
 from regen.driving.plan import ActorPlan
@@ -25,7 +25,9 @@ def _in_the_ego_path(m: PlacementModel, a: ActorSpec, s: Any) -> None:
 def _near_the_event(m: PlacementModel, a: ActorSpec, s: Any) -> None:
     e = m.ego
     ref = e.s_end if e.stops else e.s_event
-    m.at_least(a, "stands ahead of the ego's event position", s, ref + m.half(a) - 4.0)
+    # (an ego that waits at its event stays there: the actor must stand clear ahead of its front)
+    ahead = EGO_SIZE[0] / 2 + 1.0 if e.speed_event == 0.0 and not e.stops else -4.0
+    m.at_least(a, "stands ahead of the ego's event position", s, ref + m.half(a) + ahead)
     m.at_most(a, "stands within 30 m of it", s, ref + 30.0)
 
 
@@ -71,16 +73,28 @@ def _plan(placed: Placed) -> ActorPlan:
     return placed.actor_plan(x=x, y=y, heading=fr.heading)
 
 
+# start location -> the cause state's name and its relations to the ego (it also stands still)
+_CAUSE_PLACES: dict[str, tuple[str, tuple[str, ...]]] = {
+    "ahead_same_lane": ("in_ego_path", ("same_lane", "ahead_of")),
+    "crosswalk_ahead": ("in_ego_path", ("same_lane", "ahead_of")),
+    "ahead_adjacent_lane": ("ahead_in_next_lane", ("adjacent_lane", "ahead_of")),
+    "behind_same_lane": ("behind_ego", ("behind",)),
+}
+_ELSEWHERE = ("standing_ahead", ("ahead_of",))  # at the road side or the junction corner
+
+
 def _rule_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:
     a, e = r.name, "ego"
+    name, relations = _CAUSE_PLACES.get(r.location, _ELSEWHERE)
+    where = [pred(p, a, e) for p in relations]
+    if r.properties.get("door") == "opens":  # the opening: closed (ahead or behind), then open where it stands
+        before = [c for c in where if c.name in ("ahead_of", "behind")]  # (while the ego may still turn)
+        return RuleStates(cause=(("door_closed", [pred("door_open", a, negate=True)] + before),
+                                 ("door_open", [pred("door_open", a)] + where)))
+    cause = (name, where + [pred("stopped", a)])
     if r.location == "behind_same_lane":
-        return RuleStates(initial=("behind_ego", [pred("behind", a, e)]))
-    if r.properties.get("door") == "opens":
-        return RuleStates(
-            initial=("door_closed", [pred("door_open", a, negate=True), pred("ahead_of", a, e)]),
-            cause=("door_open", [pred("door_open", a), pred("ahead_of", a, e)]))
-    return RuleStates(initial=("ahead_of_ego", [pred("ahead_of", a, e), pred("stopped", a)]),
-                      final=("still_ahead", [pred("ahead_of", a, e)]))
+        return RuleStates(cause=(cause,))
+    return RuleStates(cause=(cause,), final=("still_ahead", [pred("ahead_of", a, e)]))
 
 
 SPEC = Primitive(

@@ -15,12 +15,18 @@ from regen.driving.maps import geometry
 from regen.driving.plan import ActorPlan
 from regen.driving.primitives import _switch, stationary
 from regen.driving.primitives.base import Placed, Primitive, RuleStates, pred
+from regen.driving.properties import YELLOW_TIME
+
+MIN_GREEN = 0.5  # [s] a light that turns red shows green at least this long first
 
 
 def _constrain(m: PlacementModel, a: ActorSpec, speeds: tuple[float, float]) -> None:
     t = _switch.switch_time(m, a)
     if a.properties.get("light_state") == "turns_red":
-        m.at_least(a, "turns red after at least 2 s of yellow, so after t=2 s", t, 2.0)
+        # green first long enough to be seen, else the turning is not shown
+        t_min = MIN_GREEN + YELLOW_TIME
+        m.at_least(a, f"turns red after {MIN_GREEN:g} s of green and {YELLOW_TIME:g} s of yellow, so after "
+                   f"t={t_min:g} s", t, t_min)
 
 
 def _plan(placed: Placed) -> ActorPlan:
@@ -36,20 +42,21 @@ def _plan(placed: Placed) -> ActorPlan:
 def _rule_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:
     a = r.name
     shown = r.properties.get("light_state", "turns_red")
+    # a light that switches shows it by the order of its two colors
     if shown == "turns_red":
-        return RuleStates(initial=("green", [pred("light_is", a, value="green")]),
-                          cause=("red", [pred("light_is", a, value="red")]))
+        return RuleStates(cause=(("green", [pred("light_is", a, value="green")]),
+                                 ("red", [pred("light_is", a, value="red")])))
     if shown == "red" and t.id == "drive_forward":
-        return RuleStates(initial=("red", [pred("light_is", a, value="red")]),
-                          cause=("green", [pred("light_is", a, value="green")]))
-    return RuleStates(initial=(f"shows_{shown}", [pred("light_is", a, value=shown)]))
+        return RuleStates(cause=(("red", [pred("light_is", a, value="red")]),
+                                 ("green", [pred("light_is", a, value="green")])))
+    return RuleStates(cause=((f"shows_{shown}", [pred("light_is", a, value=shown)]),))
 
 
 SPEC = Primitive(
     name="traffic_signal",
     users=frozenset({"traffic"}),
     only_for=frozenset({"traffic_light"}),
-    starts=("junction_corner",),
+    starts=("junction_corner", "roadside_ahead"),  # (on a straight road: at a crossing at the road side)
     speeds=None,
     moves=False,
     add_constraints=_constrain,

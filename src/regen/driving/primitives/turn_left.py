@@ -21,4 +21,4 @@ def _plan(placed: Placed) -> ActorPlan:
 # in the junction from 1 s before to 0.5 s after the ego's event
 SPEC = VehiclePrimitive(name="turn_left", starts=("junction_oncoming",), leaves_line=True, turns=True,
                         needs_junction=True, add_constraints=_junction.approach(early=1.0, late=0.5),
-                        build_plan=_plan, rule_states=_junction.rule_states)
+                        build_plan=_plan, rule_states=_junction.turning_rule_states)

@@ -21,4 +21,4 @@ def _plan(placed: Placed) -> ActorPlan:
 # in the junction from 2 s to 0.2 s before the ego's event
 SPEC = VehiclePrimitive(name="turn_right", starts=("junction_cross_street",), leaves_line=True, turns=True,
                         needs_junction=True, add_constraints=_junction.approach(early=2.0, late=-0.2),
-                        build_plan=_plan, rule_states=_junction.rule_states)
+                        build_plan=_plan, rule_states=_junction.turning_rule_states)

@@ -33,7 +33,8 @@ def _plan(placed: Placed) -> ActorPlan:
 def _rule_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:
     a = r.name
     return RuleStates(initial=("walking", [pred("moving", a, min_speed=0.3), pred("on_sidewalk", a)]),
-                      cause=("near_ego", [pred("close_to", a, "ego", distance=20.0)]))
+                      cause=(("near_ego", [pred("moving", a, min_speed=0.3),
+                                           pred("close_to", a, "ego", distance=20.0)]),))
 
 
 SPEC = PedestrianPrimitive(name="walk_along", starts=("roadside_ahead", "roadside_opposite_ahead"),

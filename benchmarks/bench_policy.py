@@ -1,0 +1,75 @@
+"""Policy-in-the-loop benchmark: simulated seconds per wall second without drawing, and test
+throughput, for the built-in policies on the hand-written driving chains.
+
+Per scenario the Scenic program is compiled once (cached across policies and episodes, as
+``regen test`` does); "episode" time is scene generation + the Newtonian loop with the policy +
+building the trace; "test" time adds the oracle (collisions and FSM ego states).
+
+Target (issue 13): at least 50x real time. Run: python benchmarks/bench_policy.py [--repeats N]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "driving"))
+from driving_chains import FEASIBLE  # noqa: E402  (the hand-written chains)
+
+from regen.driving.behavior_test import judge  # noqa: E402
+from regen.driving.policies import BUILTIN, load_policy  # noqa: E402
+from regen.driving.policy_loop import prepare, run_policy  # noqa: E402
+from regen.pipeline import run_path  # noqa: E402
+from regen.runfolder import ScenarioFolder  # noqa: E402
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--repeats", type=int, default=3, help="episodes per policy and scenario")
+    args = ap.parse_args()
+    work = Path(tempfile.mkdtemp(prefix="regen-bench-policy-"))
+    scenarios = []
+    for key, paths in FEASIBLE.items():
+        folder = work / f"{key}-0"
+        if run_path(paths[0], folder, pictures=False).verdict.feasible:
+            scenarios.append((key, ScenarioFolder(folder).scenario()))
+    print(f"{'scenario':22s} {'policy':15s} {'compile [s]':>11s} {'episode [s]':>11s} "
+          f"{'policy [ms]':>11s} {'x real time':>11s} {'test [s]':>9s}")
+    speeds, tests, total_test, sim_total = [], 0, 0.0, 0.0
+    for key, sc in scenarios:
+        t0 = time.perf_counter()
+        prep = prepare(sc)
+        compile_s = time.perf_counter() - t0
+        for name in BUILTIN:
+            ep_times, pol_times, test_times = [], [], []
+            for _ in range(args.repeats):
+                policy = load_policy(name)
+                t1 = time.perf_counter()
+                episode = run_policy(prep, policy)
+                t2 = time.perf_counter()
+                judge(sc, episode, folder=key)
+                t3 = time.perf_counter()
+                ep_times.append(t2 - t1)
+                test_times.append(t3 - t1)
+                pol_times.append(episode.timings["policy"])
+            simulated = episode.trace.times[-1]
+            ep = statistics.median(ep_times)
+            speeds.append(simulated / ep)
+            tests += len(test_times)
+            total_test += sum(test_times)
+            sim_total += simulated * len(test_times)
+            print(f"{key:22s} {name:15s} {compile_s:11.2f} {ep:11.3f} {1000 * statistics.median(pol_times):11.1f} "
+                  f"{simulated / ep:11.0f} {statistics.median(test_times):9.3f}")
+            compile_s = 0.0  # cached after the first policy
+    print(f"\nsimulation speed without drawing: median {statistics.median(speeds):.0f}x real time, "
+          f"min {min(speeds):.0f}x (target >= 50x)")
+    print(f"test throughput (program compiled, per scenario variant): {tests / total_test:.1f} tests/s, "
+          f"{sim_total / total_test:.0f} simulated s per wall s")
+
+
+if __name__ == "__main__":
+    main()

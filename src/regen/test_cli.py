@@ -1,0 +1,77 @@
+"""``regen test RUN_DIR --policy SPEC``: a run's driving scenarios as behavior tests of a policy.
+
+A thin layer over :func:`regen.driving.behavior_test.run_tests`. Mounted by :mod:`regen.cli`
+(``app.command("test")(test_command)``). Exit code: 0 when every test passed (or was skipped),
+1 when any failed, 2 for a bad SPEC, folder or option.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.markup import escape
+
+from regen.core.text import clean
+from regen.errors import RegenError
+
+_STYLE = {"PASS": "green", "FAIL": "red", "SKIP": "yellow"}
+
+
+def default_out(run_dir: Path, policy: str) -> Path:
+    """RUN_DIR/tests/<policy as a file name>: one folder per policy tested."""
+    where, _, attr = policy.rpartition(":")
+    name = f"{Path(where).stem}-{attr}" if where else policy
+    return Path(run_dir) / "tests" / (re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("._") or "policy")
+
+
+def test_command(
+    run_dir: Annotated[Path, typer.Argument(help="A run folder made by regen generate.", show_default=False)],
+    policy: Annotated[str, typer.Option(
+        "--policy", "-p", help="constant-speed, idm, aeb, module:callable or path/to/file.py:callable "
+                               "(called every step with an Observation; returns acceleration "
+                               "in m/s^2 and curvature in 1/m).")] = "idm",
+    variants: Annotated[int, typer.Option(min=1, help="Parameter variants per scenario (only 1 so far).")] = 1,
+    seed: Annotated[int, typer.Option(help="Seed of the variant sampling.")] = 0,
+    out: Annotated[Path | None, typer.Option(
+        "--out", "-o", help="Folder for tests.json and junit.xml (default: RUN_DIR/tests/<policy>).")] = None,
+    oracle: Annotated[str, typer.Option(
+        help="fsm: the ego's FSM states in order and no collision; safety: no collision only.")] = "fsm",
+    step_timeout: Annotated[float, typer.Option(
+        "--step-timeout", min=0.001, help="Wall seconds a policy may take per step.")] = 1.0,
+) -> None:
+    """Run a driving policy in place of the scripted ego in every scenario of a run."""
+    from regen.driving.behavior_test import case_line, run_tests, write_report
+
+    console = Console(highlight=False, soft_wrap=True)
+
+    def show(case) -> None:
+        line = case_line(case)
+        tag = line[:4]
+        console.print(f"[{_STYLE[tag]}]{tag}[/]{escape(clean(line[4:]))}")
+
+    try:
+        report = run_tests(run_dir, policy, variants=variants, seed=seed, step_timeout=step_timeout,
+                           oracle=oracle, on_case=show)
+        files = write_report(report, out or default_out(run_dir, policy))
+    except RegenError as exc:
+        Console(stderr=True, soft_wrap=True).print(f"[red]error:[/red] {escape(clean(str(exc)))}")
+        raise typer.Exit(code=exc.exit_code) from exc
+    s = report.summary()
+    console.print(f"{s['passed']}/{s['tests']} passed, {s['skipped']} skipped; {report.collision_line()}")
+    console.print(f"wrote {escape(str(files['tests']))} and {escape(str(files['junit']))}")
+    if s["failed"]:
+        raise typer.Exit(code=1)
+
+
+def make_app() -> typer.Typer:
+    """A standalone Typer app with only ``test`` (for tests)."""
+    app = typer.Typer(add_completion=False)
+    app.command("test")(test_command)
+    return app
+
+
+__all__ = ["default_out", "make_app", "test_command"]
