@@ -136,7 +136,8 @@ def ground_stage(backend: DomainBackend, path: CausePath, llm: LLM | None, folde
     except Exception as exc:
         if _fatal(exc):
             raise
-        folder.write_error(traceback.format_exc())
+        if not isinstance(exc, RegenError):  # a bug: keep the traceback; a reason is not one
+            folder.write_error(traceback.format_exc())
         reason = str(exc) if isinstance(exc, RegenError) else f"{type(exc).__name__}: {exc}"
         # the graph's choice cannot be honored: said as such, never swapped for another choice
         verdict = _failed("ungroundable" if isinstance(exc, UngroundableError) else "grounding_failed", reason)
