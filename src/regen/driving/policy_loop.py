@@ -14,6 +14,7 @@ step, never an exception.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import random
 import signal
@@ -36,6 +37,7 @@ from regen.driving.policies import (
     Observation,
     as_action,
 )
+from regen.driving.simulate import snapshot
 from regen.errors import SimulationError
 
 STEP_TIMEOUT = 1.0  # default wall time a policy may take per step [s]
@@ -197,8 +199,7 @@ class _Driver:
     def record(self, sim) -> None:
         if not self.names:
             self.names = [getattr(o, "name", f"obj{i}") for i, o in enumerate(sim.objects)]
-        self.log.append([(o.position.x, o.position.y, o.heading, math.hypot(o.velocity.x, o.velocity.y))
-                         for o in sim.objects])
+        self.log.append(snapshot(sim.objects))
 
     def _route_ahead(self, x: float, y: float, h: float) -> tuple[tuple[float, float], ...]:
         c, s = math.cos(h), math.sin(h)
@@ -263,13 +264,8 @@ class _Driver:
         ego.steer = -math.asin(k) * 2.0 / math.pi
 
 
-_SIM_CLASS = None
-
-
+@functools.cache
 def _simulator_class():
-    global _SIM_CLASS
-    if _SIM_CLASS is not None:
-        return _SIM_CLASS
     from regen.driving.simulate import _scenic
 
     _, newtonian = _scenic()
@@ -296,8 +292,7 @@ def _simulator_class():
         def createSimulation(self, scene, **kwargs):
             return PolicySimulation(scene, self.network, self.regen_driver, **kwargs)
 
-    _SIM_CLASS = PolicySimulator
-    return _SIM_CLASS
+    return PolicySimulator
 
 
 def run_policy(scenario: Scenario | Prepared, policy: Callable, *,
@@ -310,7 +305,7 @@ def run_policy(scenario: Scenario | Prepared, policy: Callable, *,
     """
     from regen.driving.maps import geometry
     from regen.driving.record import build_trace
-    from regen.driving.simulate import RawRun
+    from regen.driving.simulate import raw_run
 
     prep = scenario if isinstance(scenario, Prepared) else prepare(scenario)
     n_steps = int(steps if steps is not None else prep.steps)
@@ -342,12 +337,7 @@ def run_policy(scenario: Scenario | Prepared, policy: Callable, *,
         return PolicyRun(trace=None, failure=failure.reason if failure else "nothing was simulated",
                          failure_kind=failure.kind if failure else "exception", failure_time=0.0,
                          timings=timings)
-    run = RawRun(dt=prep.dt, times=[round(k * prep.dt, 6) for k in range(len(driver.log))])
-    for i, name in enumerate(driver.names):
-        run.x[name] = [float(r[i][0]) for r in driver.log]
-        run.y[name] = [float(r[i][1]) for r in driver.log]
-        run.heading[name] = [float(r[i][2]) + math.pi / 2 for r in driver.log]
-        run.speed[name] = [float(r[i][3]) for r in driver.log]
+    run = raw_run(driver.log, driver.names, prep.dt, {})
     trace = build_trace(run, prep.plans, geometry(prep.map_name), map_path=prep.map_path,
                         seed=prep.seed, meta={"scenario": prep.scenario.id, "ego": "policy"})
     return PolicyRun(trace=trace, failure=failure.reason if failure else None,

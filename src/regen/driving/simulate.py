@@ -7,6 +7,7 @@ needed and the exported program stays plain Scenic.
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import random
@@ -42,14 +43,29 @@ def _scenic():
     return scenic, newtonian
 
 
-_SIM_CLASS = None
+Snapshot = list[tuple[float, float, float, float]]  # per object: x [m], y [m], Scenic heading [rad], speed [m/s]
 
 
+def snapshot(objects) -> Snapshot:
+    """The pose and speed of every simulated object at this step."""
+    return [(o.position.x, o.position.y, o.heading, math.hypot(o.velocity.x, o.velocity.y))
+            for o in objects]
+
+
+def raw_run(log: list[Snapshot], names: list[str], dt: float, timings: dict[str, float]) -> RawRun:
+    """The per-actor columns of a recorded log (headings turned from Scenic's +y to the trace's +x)."""
+    run = RawRun(dt=dt, times=[round(k * dt, 6) for k in range(len(log))], timings=timings)
+    for i, name in enumerate(names):
+        run.x[name] = [float(r[i][0]) for r in log]
+        run.y[name] = [float(r[i][1]) for r in log]
+        run.heading[name] = [float(r[i][2]) + math.pi / 2 for r in log]
+        run.speed[name] = [float(r[i][3]) for r in log]
+    return run
+
+
+@functools.cache
 def _recording_simulator_class():
     """A NewtonianSimulator whose simulations record every object after every step."""
-    global _SIM_CLASS
-    if _SIM_CLASS is not None:
-        return _SIM_CLASS
     _, newtonian = _scenic()
 
     class RecordingSimulation(newtonian.NewtonianSimulation):
@@ -59,9 +75,7 @@ def _recording_simulator_class():
             self._regen_record()
 
         def _regen_record(self):
-            self.regen_log.append([(o.position.x, o.position.y, o.heading,
-                                    math.hypot(o.velocity.x, o.velocity.y))
-                                   for o in self.objects])
+            self.regen_log.append(snapshot(self.objects))
 
         def step(self):
             super().step()
@@ -71,8 +85,7 @@ def _recording_simulator_class():
         def createSimulation(self, scene, **kwargs):
             return RecordingSimulation(scene, self.network, False, False, False, **kwargs)
 
-    _SIM_CLASS = RecordingSimulator
-    return _SIM_CLASS
+    return RecordingSimulator
 
 
 def compile_program(text: str, *, filename: str = "<regen>"):
@@ -106,14 +119,6 @@ def run_program(text: str, *, steps: int, dt: float, seed: int = 0) -> RawRun:
     t3 = time.perf_counter()
     if sim is None:
         raise SimulationError("the Newtonian simulation was rejected (a requirement failed)")
-    logged = sim.regen_log
     names = [getattr(o, "name", f"obj{i}") for i, o in enumerate(scene.objects)]
-    run = RawRun(dt=dt, times=[round(k * dt, 6) for k in range(len(logged))],
-                 timings={"compile": t1 - t0, "generate": t2 - t1, "simulate": t3 - t2})
-    for i, name in enumerate(names):
-        run.x[name] = [float(r[i][0]) for r in logged]
-        run.y[name] = [float(r[i][1]) for r in logged]
-        # Scenic measures headings from +y; the trace from +x
-        run.heading[name] = [float(r[i][2]) + math.pi / 2 for r in logged]
-        run.speed[name] = [float(r[i][3]) for r in logged]
-    return run
+    return raw_run(sim.regen_log, names, dt,
+                   {"compile": t1 - t0, "generate": t2 - t1, "simulate": t3 - t2})
