@@ -80,7 +80,8 @@ class PlacementModel:
         return self.int(a.name, "s", -400.0, 400.0), self.int(a.name, "v", *speeds)
 
     def trigger(self, a: ActorSpec) -> Any:
-        """The time ``t`` [s] at which the actor does its thing, within the scenario."""
+        """The time ``t`` [s] at which the actor does its thing with the template ego, within the
+        scenario; its plan turns it into a trigger on the ego (:mod:`regen.driving.triggers`)."""
         return self.int(a.name, "t", 0.0, self.ego.duration)
 
     def ego_s(self, t: float) -> float:

@@ -4,7 +4,9 @@ The scenario's Scenic program is written as usual except that the ego has no Sce
 a subclass of Scenic's Newtonian simulation asks the policy for an action before every physics
 step and turns it into the ego's throttle, brake and steering (see
 :mod:`regen.driving.policies` for the action's meaning), then records every object as
-:mod:`regen.driving.simulate` does. Every other actor runs its scripted Scenic behavior.
+:mod:`regen.driving.simulate` does. Every other actor runs its scripted Scenic behavior, its
+cause action set off by what this ego does (:mod:`regen.driving.triggers`); the property states
+the policy observes run on the same warped clocks, from the ego at the same step.
 
 A policy that raises, returns something that is not a finite action, or takes longer than the
 per-step timeout ends the episode there: the result carries the reason and the trace up to that
@@ -38,6 +40,7 @@ from regen.driving.policies import (
     as_action,
 )
 from regen.driving.simulate import snapshot
+from regen.driving.triggers import warped_time
 from regen.errors import SimulationError
 
 STEP_TIMEOUT = 1.0  # default wall time a policy may take per step [s]
@@ -194,6 +197,7 @@ class _Driver:
         self.log: list[list[tuple[float, float, float, float]]] = []
         self.names: list[str] = []
         self.policy_time = 0.0
+        self.t_fire: dict[str, float | None] = {}  # actor -> when its trigger fired [s]
 
     # recording, as regen.driving.simulate does
     def record(self, sim) -> None:
@@ -218,6 +222,9 @@ class _Driver:
         t = sim.currentTime * self.prep.dt
         actors = []
         ego = None
+        eo = sim.objects[self.names.index("ego")] if "ego" in self.names else None
+        ego_now = ((float(eo.position.x), float(eo.position.y), float(math.hypot(eo.velocity.x, eo.velocity.y)))
+                   if eo is not None else None)
         for i, o in enumerate(sim.objects):
             name = self.names[i]
             h = float(o.heading) + math.pi / 2  # Scenic measures headings from +y
@@ -231,7 +238,10 @@ class _Driver:
             p = self.by_name.get(name)
             if p is None or not p.cls:
                 continue
-            vis = {k: _at(p.states[k], t) for k in VISIBLE if k in p.states}
+            clock = t
+            if p.trigger is not None and ego_now is not None:
+                self.t_fire[name], clock = warped_time(p.trigger.spec(), self.t_fire.get(name), t, *ego_now)
+            vis = {k: _at(p.states[k], clock) for k in VISIBLE if k in p.states}
             if p.cls == "Car" and p.kind != "object" and len(self.log) >= 2:
                 decel = (self.log[-2][i][3] - self.log[-1][i][3]) / self.prep.dt
                 broken = p.states.get("brake_lights", [(0.0, "")])[-1][1] == "broken"

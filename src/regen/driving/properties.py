@@ -1,7 +1,9 @@
 """Property states over time: what the Newtonian model lacks (doors, lights, sirens, sensors).
 
-A role's property values become schedules ``[(t_from [s], value), ...]`` on its plan; the trace
-records them step by step (:mod:`regen.driving.record`) for the predicates to read.
+A role's property values become schedules ``[(t_from [s], value), ...]`` on its plan, in the
+template ego's time; the trace records them step by step (:mod:`regen.driving.record`) for the
+predicates to read, on the clock of the plan's trigger (:mod:`regen.driving.triggers`), so a
+door opens or a light turns red as the actual ego comes near.
 """
 
 from __future__ import annotations

@@ -4,6 +4,9 @@ The Newtonian model knows poses and speeds only. This module adds, per step: map
 on road, on sidewalk, in junction) from the analytic map geometry, and property states that
 the model lacks: scheduled states (traffic lights, sirens, doors, hazard lights, sensor
 signals), brake lights derived from deceleration, and a GNSS position error for sensors.
+Scheduled states run on the actor's warped clock (:mod:`regen.driving.triggers`), computed
+step by step from the recorded ego as the Scenic program computed it, so a light turns red when
+the simulated actors saw it turn.
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ from regen.driving.ego import JUNCTION_CX
 from regen.driving.maps import MapGeometry
 from regen.driving.plan import ActorPlan
 from regen.driving.simulate import RawRun
+from regen.driving.triggers import fire_times
 
 BRAKE_LIGHT_DECEL = 1.0  # deceleration above which brake lights are lit [m/s^2]
 GNSS_SIGMA = {"nominal": 0.3, "noisy": 3.0, "jammed": 40.0}  # horizontal error scale [m]
@@ -45,6 +49,7 @@ def map_facts(geo: MapGeometry, x: float, y: float) -> tuple[int | None, bool, b
 
 
 def _scheduled(schedule: list[tuple[float, str]], times: list[float]) -> list[str | None]:
+    """The value of ``schedule`` [(t_from [s], value)] at each of ``times`` [s] (schedule time)."""
     out: list[str | None] = []
     for t in times:
         val = None
@@ -61,7 +66,7 @@ def build_trace(run: RawRun, plans: list[ActorPlan], geo: MapGeometry, *, map_pa
     rng = np.random.default_rng(seed)
     actors: dict[str, ActorTrack] = {}
     n = len(run.times)
-    by_name = {p.name: p for p in plans}
+    ego = (run.x["ego"], run.y["ego"], run.speed["ego"]) if "ego" in run.x else None
     for p in plans:
         src = p.attach_to if p.kind == "sensor" and p.attach_to in run.x else p.name
         if src in run.x:
@@ -76,8 +81,11 @@ def build_trace(run: RawRun, plans: list[ActorPlan], geo: MapGeometry, *, map_pa
             "on_sidewalk": [f[2] for f in facts],
             "in_junction": [f[3] for f in facts],
         }
-        for key, sched in p.states.items():
-            states[key] = _scheduled(sched, run.times)
+        if p.states:
+            clock = (fire_times(p.trigger.spec(), run.times, *ego) if p.trigger is not None and ego
+                     else run.times)
+            for key, sched in p.states.items():
+                states[key] = _scheduled(sched, clock)
         if p.cls == "Car" and p.kind != "object":
             acc = np.gradient(np.asarray(vs), run.dt) if n >= 2 else np.zeros(n)
             broken = p.states.get("brake_lights", [(0.0, "")])[-1][1] == "broken"
@@ -88,7 +96,6 @@ def build_trace(run: RawRun, plans: list[ActorPlan], geo: MapGeometry, *, map_pa
         actors[p.name] = ActorTrack(asset=p.asset, kind=p.kind, length=p.length, width=p.width,
                                     height=p.height, x=list(xs), y=list(ys), heading=hs,
                                     speed=list(vs), states=states)
-    del by_name
     info = {"simulator": "scenic-newtonian", "map": geo.name, "map_path": str(map_path)}
     info.update(meta or {})
     return Trace(dt=run.dt, times=list(run.times), actors=actors, meta=info)

@@ -1,7 +1,9 @@
 """Write a driving scenario as a Scenic program (Newtonian driving model, 2D, render off).
 
 Nothing a model or user wrote reaches the program as code: actor names are whitelisted into
-identifiers, numbers are formatted from floats, and free text (the narrative) is written as a
+identifiers, numbers are formatted from floats, trigger kinds are checked against
+:data:`regen.driving.triggers.KINDS`, the trigger functions are this package's own source
+(:func:`regen.driving.triggers.scenic_source`), and free text (the narrative) is written as a
 Python string literal (``repr``), with lone surrogates replaced first: a JSON escape would split
 an emoji into two lone surrogates inside the program.
 """
@@ -16,6 +18,7 @@ from importlib import resources
 import jinja2
 
 from regen.driving.plan import ActorPlan
+from regen.driving.triggers import KINDS, Trigger, scenic_source
 from regen.errors import ConfigError
 
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,63}$")
@@ -54,6 +57,15 @@ def _points(route: list[tuple[float, float]]) -> str:
 
 def _schedule(schedule: list[tuple[float, float, float]]) -> str:
     return "[" + ", ".join(f"({_num(t)}, {_num(s)}, {_num(b)})" for t, s, b in schedule) + "]"
+
+
+def _trigger(trigger: Trigger | None) -> str:
+    if trigger is None:
+        return "None"
+    if trigger.kind not in KINDS:
+        raise ConfigError(f"unknown trigger kind {trigger.kind!r}; choose one of: {', '.join(KINDS)}")
+    kind, *numbers = trigger.spec()
+    return "(" + ", ".join([repr(kind)] + [_num(v) for v in numbers]) + ")"
 
 
 @lru_cache(maxsize=1)
@@ -102,10 +114,12 @@ def write_program(plans: list[ActorPlan], *, map_path: str, dt: float, max_steps
             "behavior": behavior,
             "route": _points(p.route) if behavior else "",
             "schedule": _schedule(p.schedule) if behavior else "",
+            "trigger": _trigger(p.trigger) if behavior else "",
         })
     return _template().render(
         title=" ".join(re.sub(r"[^A-Za-z0-9 _.,:;()-]", " ", title).split())[:200],
         map_path=_literal(str(map_path)),
         narrative=_literal(" ".join(narrative.split())),
         seed=int(seed), dt=_num(dt), max_steps=int(max_steps), actors=actors,
+        trigger_source=scenic_source(),
     )

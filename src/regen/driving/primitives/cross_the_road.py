@@ -11,6 +11,7 @@ from regen.driving.ego import EGO_SIZE, EgoTemplate
 from regen.driving.locations import LOCATIONS
 from regen.driving.plan import ActorPlan
 from regen.driving.primitives.base import PedestrianPrimitive, Placed, RuleStates, pred
+from regen.driving.triggers import approach
 
 
 def _walk_window(m: PlacementModel, a: ActorSpec, t: Any, v: Any, dist: float,
@@ -57,8 +58,12 @@ def _plan(placed: Placed) -> ActorPlan:
     route = [fr.point(s, d0), fr.point(s, -d0)]
     x, y = route[0]
     heading = fr.heading + (math.pi / 2 if side == "right" else -math.pi / 2)
+    t = p.get("t", 0.0)
+    # it steps out as the ego comes near where it crosses the ego's lane
+    crossing = fr.point(s, fr.lane_d(placed.ego.ego_lane))
     return placed.actor_plan(x=x, y=y, heading=heading, route=route,
-                             schedule=[(0.0, 0.0, 0.0), (p.get("t", 0.0), p.get("v", 0.0), 0.0)])
+                             schedule=[(0.0, 0.0, 0.0), (t, p.get("v", 0.0), 0.0)],
+                             trigger=approach(placed.ego, crossing, t))
 
 
 def _rule_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:

@@ -19,6 +19,7 @@ from regen.driving.ego import EgoTemplate
 from regen.driving.plan import ActorPlan
 from regen.driving.primitives import _lanes
 from regen.driving.primitives.base import Placed, RuleStates, VehiclePrimitive, pred
+from regen.driving.triggers import Trigger, approach, ego_slower
 
 REACTION_TIME = {"attentive": 1.0, "distracted": 2.2}  # [s] before a follower brakes, by driver_state
 
@@ -143,6 +144,25 @@ def _steady(placed: Placed) -> tuple[float, float]:
     return 0.0, 0.0
 
 
+def _no_trigger(placed: Placed) -> Trigger | None:
+    return None
+
+
+def _leading_trigger(placed: Placed) -> Trigger | None:
+    """It brakes as the ego comes near where it brakes in the template, or departs at its time
+    before the waiting ego (:func:`~regen.driving.triggers.approach` makes that a time trigger)."""
+    ego, p = placed.ego, placed.params
+    if "t" not in p:
+        return None
+    s_brake = p.get("s", 0.0) + p.get("v", 0.0) * p["t"]
+    return approach(ego, ego.frame.point(s_brake, placed.lateral), p["t"])
+
+
+def _following_trigger(placed: Placed) -> Trigger | None:
+    """It brakes its reaction time after the ego brakes hard (measured from the ego's speed)."""
+    return ego_slower(placed.ego) if placed.ego.stops else None
+
+
 def _leading_timing(placed: Placed) -> tuple[float, float]:
     ego, p = placed.ego, placed.params
     if "t" not in p:
@@ -164,13 +184,16 @@ class _Start:
     constrain: Callable[[PlacementModel, ActorSpec, Any, Any, Any], None]  # given s, v and s_te
     states: Callable[[str, EgoTemplate], RuleStates]  # its rule states (actor name, ego template)
     timing: Callable[[Placed], tuple[float, float]] = _steady  # when it departs, brakes [s] (0: never)
+    trigger: Callable[[Placed], Trigger | None] = _no_trigger  # what starts that (None: steady traffic)
     towards_ego: bool = False  # drives against the ego's direction
 
 
 # start location -> what it does from there (in the order offered)
 _STARTS: dict[str, _Start] = {
-    "ahead_same_lane": _Start(constrain=_leads, states=_leading_states, timing=_leading_timing),
-    "behind_same_lane": _Start(constrain=_follows, states=_following_states, timing=_following_timing),
+    "ahead_same_lane": _Start(constrain=_leads, states=_leading_states, timing=_leading_timing,
+                              trigger=_leading_trigger),
+    "behind_same_lane": _Start(constrain=_follows, states=_following_states, timing=_following_timing,
+                               trigger=_following_trigger),
     "ahead_adjacent_lane": _Start(constrain=_next_lane_ahead, states=_next_lane_states),
     "behind_adjacent_lane": _Start(constrain=_overtakes, states=_overtaking_states),
     "oncoming_lane": _Start(constrain=_oncoming, states=_oncoming_states, towards_ego=True),
@@ -199,7 +222,8 @@ def _plan(placed: Placed) -> ActorPlan:
     if brakes > 0:
         schedule.append((brakes, 0.0, 1.0))
     heading = fr.heading if sign > 0 else fr.heading + math.pi
-    return placed.actor_plan(x=x, y=y, heading=heading, speed0=speed0, route=route, schedule=schedule)
+    return placed.actor_plan(x=x, y=y, heading=heading, speed0=speed0, route=route, schedule=schedule,
+                             trigger=start.trigger(placed))
 
 
 def _rule_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:

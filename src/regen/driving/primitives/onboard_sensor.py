@@ -10,6 +10,7 @@ from regen.driving.ego import EgoTemplate
 from regen.driving.plan import ActorPlan
 from regen.driving.primitives import _switch
 from regen.driving.primitives.base import Placed, Primitive, RuleStates, pred
+from regen.driving.triggers import approach
 
 SENSOR_SIZE = 0.1  # [m] length, width and height of the marker a sensor gets in a trace
 
@@ -20,10 +21,13 @@ def _constrain(m: PlacementModel, a: ActorSpec, speeds: tuple[float, float]) -> 
 
 def _plan(placed: Placed) -> ActorPlan:
     (ex, ey), (nx, ny) = placed.ego.route[0], placed.ego.route[1]
-    a = placed.actor
+    a, ego = placed.actor, placed.ego
+    # the signal degrades as the ego comes near where its event happens (a tunnel, a jammer)
+    event = ego.frame.point(ego.s_event, ego.frame.lane_d(ego.ego_lane))
     return ActorPlan(name=a.name, asset=a.asset, kind="sensor", cls="", x=ex, y=ey,
                      heading=math.atan2(ny - ey, nx - ex), length=SENSOR_SIZE, width=SENSOR_SIZE,
-                     height=SENSOR_SIZE, attach_to="ego", comment="sensor on the ego")
+                     height=SENSOR_SIZE, attach_to="ego", comment="sensor on the ego",
+                     trigger=approach(ego, event, placed.params.get("t", 0.0)))
 
 
 def _rule_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:

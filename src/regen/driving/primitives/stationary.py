@@ -12,6 +12,7 @@ from regen.driving.locations import LOCATIONS
 from regen.driving.maps import JUNCTION_RADIUS
 from regen.driving.plan import ActorPlan
 from regen.driving.primitives.base import Placed, Primitive, RuleStates, pred
+from regen.driving.triggers import approach
 
 
 def _in_the_ego_path(m: PlacementModel, a: ActorSpec, s: Any) -> None:
@@ -64,13 +65,16 @@ def _constrain(m: PlacementModel, a: ActorSpec, speeds: tuple[float, float]) -> 
 
 
 def _plan(placed: Placed) -> ActorPlan:
+    fr = placed.ego.frame
     loc = LOCATIONS.get(placed.actor.location)
     if loc is not None and loc.needs_junction:  # at a junction it stands at the corner
-        w = placed.ego.frame.lane_width
-        return placed.actor_plan(x=JUNCTION_CX - JUNCTION_RADIUS - 1.0, y=-(w + 1.5), heading=0.0)
-    fr = placed.ego.frame
-    x, y = fr.point(placed.params.get("s", 0.0), placed.lateral)
-    return placed.actor_plan(x=x, y=y, heading=fr.heading)
+        (x, y), heading = (JUNCTION_CX - JUNCTION_RADIUS - 1.0, -(fr.lane_width + 1.5)), 0.0
+    else:
+        (x, y), heading = fr.point(placed.params.get("s", 0.0), placed.lateral), fr.heading
+    # its state switch (a door opens, a light turns red) as the ego comes near it; what never
+    # switches (no solved time) needs no trigger
+    trigger = approach(placed.ego, (x, y), placed.params["t"]) if "t" in placed.params else None
+    return placed.actor_plan(x=x, y=y, heading=heading, trigger=trigger)
 
 
 # start location -> the cause state's name and its relations to the ego (it also stands still)

@@ -16,6 +16,7 @@ from regen.driving.plan import ActorPlan
 from regen.driving.primitives import _switch, stationary
 from regen.driving.primitives.base import Placed, Primitive, RuleStates, pred
 from regen.driving.properties import YELLOW_TIME
+from regen.driving.triggers import approach
 
 MIN_GREEN = 0.5  # [s] a light that turns red shows green at least this long first
 
@@ -32,11 +33,19 @@ def _constrain(m: PlacementModel, a: ActorSpec, speeds: tuple[float, float]) -> 
 def _plan(placed: Placed) -> ActorPlan:
     ego = placed.ego
     if geometry(ego.map).junction:
-        return stationary.SPEC.build_plan(placed)
-    s = (ego.s_end if ego.stops else ego.s_event) + 6.0
-    x, y = ego.frame.point(s, ego.frame.sidewalk_d("right"))
-    return placed.actor_plan(x=x, y=y, heading=ego.frame.heading + math.pi,
-                             comment="traffic light at a crossing")
+        plan = stationary.SPEC.build_plan(placed)
+    else:
+        s = (ego.s_end if ego.stops else ego.s_event) + 6.0
+        x, y = ego.frame.point(s, ego.frame.sidewalk_d("right"))
+        plan = placed.actor_plan(x=x, y=y, heading=ego.frame.heading + math.pi,
+                                 comment="traffic light at a crossing")
+    # it switches as the ego comes near it (for an ego that waits at it: at its solved time); a
+    # light that turns red starts its yellow then, so it never stays yellow for a slow ego
+    t = placed.params.get("t", 0.0)
+    if placed.actor.properties.get("light_state") == "turns_red":
+        t = max(0.0, t - YELLOW_TIME)
+    plan.trigger = approach(ego, (plan.x, plan.y), t)
+    return plan
 
 
 def _rule_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:
