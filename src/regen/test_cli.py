@@ -23,9 +23,12 @@ _STYLE = {"PASS": "green", "FAIL": "red", "SKIP": "yellow"}
 
 def default_out(run_dir: Path, policy: str) -> Path:
     """RUN_DIR/tests/<policy as a file name>: one folder per policy tested."""
+    from regen.runfolder import RunFolder
+
     where, _, attr = policy.rpartition(":")
     name = f"{Path(where).stem}-{attr}" if where else policy
-    return Path(run_dir) / "tests" / (re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("._") or "policy")
+    safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("._") or "policy"
+    return Path(run_dir) / RunFolder.TESTS / safe
 
 
 def test_command(
@@ -34,7 +37,10 @@ def test_command(
         "--policy", "-p", help="constant-speed, idm, aeb, module:callable or path/to/file.py:callable "
                                "(called every step with an Observation; returns acceleration "
                                "in m/s^2 and curvature in 1/m).")] = "idm",
-    variants: Annotated[int, typer.Option(min=1, help="Parameter variants per scenario (only 1 so far).")] = 1,
+    variants: Annotated[int | None, typer.Option(
+        min=1, help="Parameter variants per scenario, sampled (seeded) from its solved feasible set; "
+                    "variant 0 is the scenario as grounded (default 1). With --adversarial: the "
+                    "candidates searched per scenario (default 16).", show_default=False)] = None,
     seed: Annotated[int, typer.Option(help="Seed of the variant sampling.")] = 0,
     out: Annotated[Path | None, typer.Option(
         "--out", "-o", help="Folder for tests.json and junit.xml (default: RUN_DIR/tests/<policy>).")] = None,
@@ -42,9 +48,15 @@ def test_command(
         help="fsm: the ego's FSM states in order and no collision; safety: no collision only.")] = "fsm",
     step_timeout: Annotated[float, typer.Option(
         "--step-timeout", min=0.001, help="Wall seconds a policy may take per step.")] = 1.0,
+    adversarial: Annotated[bool, typer.Option(
+        "--adversarial", help="Search the feasible parameters for variants that make the policy fail "
+                              "while the scripted template ego verifies and collides with nothing "
+                              "in the same variant; report them with their parameters.")] = False,
 ) -> None:
     """Run a driving policy in place of the scripted ego in every scenario of a run."""
+    from regen.driving.adversarial import DEFAULT_BUDGET, summary_lines
     from regen.driving.behavior_test import case_line, run_tests, write_report
+    from regen.driving.failure_gif import keep_failures
 
     console = Console(highlight=False, soft_wrap=True)
 
@@ -53,18 +65,33 @@ def test_command(
         tag = line[:4]
         console.print(f"[{_STYLE[tag]}]{tag}[/]{escape(clean(line[4:]))}")
 
+    dest = out or default_out(run_dir, policy)
     try:
-        report = run_tests(run_dir, policy, variants=variants, seed=seed, step_timeout=step_timeout,
-                           oracle=oracle, on_case=show)
-        files = write_report(report, out or default_out(run_dir, policy))
+        n = variants or (DEFAULT_BUDGET if adversarial else 1)
+        report = run_tests(run_dir, policy, variants=n, seed=seed, step_timeout=step_timeout,
+                           oracle=oracle, adversarial=adversarial, on_case=show, on_episode=keep_failures(dest, policy=policy))
+        files = write_report(report, dest)
     except RegenError as exc:
         Console(stderr=True, soft_wrap=True).print(f"[red]error:[/red] {escape(clean(str(exc)))}")
         raise typer.Exit(code=exc.exit_code) from exc
     s = report.summary()
+    for line in summary_lines(report):
+        console.print(escape(clean(line)))
     console.print(f"{s['passed']}/{s['tests']} passed, {s['skipped']} skipped; {report.collision_line()}")
     console.print(f"wrote {escape(str(files['tests']))} and {escape(str(files['junit']))}")
+    console.print(_rerender(run_dir))
     if s["failed"]:
         raise typer.Exit(code=1)
+
+
+def _rerender(run_dir: Path) -> str:
+    """Rewrite RUN_DIR/report.html so it shows the tests; the terminal line saying where it is."""
+    from regen.report import write_report as write_run_report
+
+    try:
+        return f"report: {escape(str(write_run_report(run_dir)))}"
+    except (RegenError, OSError) as exc:  # the tests are written; a report problem is only told
+        return f"[yellow]report not updated:[/yellow] {escape(clean(str(exc)))}"
 
 
 def make_app() -> typer.Typer:

@@ -61,14 +61,29 @@ def test_constant_speed_runs_over_the_crossing_child(prepared):
     assert "collision" in case.message and case.min_ttc == 0.0
 
 
-def test_idm_yields_to_the_child_but_not_abruptly(prepared):
+def test_idm_yields_to_the_child_but_does_not_stop(prepared):
     episode, case = _case(prepared, load_policy("idm"))
-    assert not analyze(episode.trace).collisions and min(episode.trace.actors["ego"].speed) < 5.0
-    # the FSM's ego states are the template's: 'braking' means braking(ego, min_decel=4.0), and
-    # IDM brakes early and gently (< 2 m/s^2): the FSM oracle fails it, the safety oracle passes it
-    assert case.cause == "ego_state_not_reached" and "'braking'" in case.message
+    speed = episode.trace.actors["ego"].speed
+    assert not analyze(episode.trace).collisions and min(speed) < 5.0
+    # the oracle asks for the ego's states, not the template's manner: IDM brakes early and
+    # gently (the template's braking(ego, min_decel=4.0) would fail it) and that counts as
+    # braking; but the child is across before IDM gets there, so it never stops: the FSM oracle
+    # fails it at 'stopped', the safety oracle passes it
+    assert case.ego_stages[1].reached_at is not None
+    assert case.cause == "ego_state_not_reached" and "'stopped'" in case.message and min(speed) > 0.3
     safe = judge(prepared.scenario, episode, folder=CHILD, oracle="safety")
     assert safe.status == "passed" and "not required" in safe.message
+
+
+def test_the_oracle_drops_the_template_manner_only(prepared):
+    from regen.driving.behavior_test import oracle_state
+
+    scenario = prepared.scenario
+    ego_states = {s.name: s for s in scenario.fsm.states if s.actor == "ego"}
+    assert ego_states["braking"].all_of[0].params["min_decel"] > 1.0  # the template brakes hard
+    braking = oracle_state(scenario, "braking")
+    assert [(c.name, c.params) for c in braking.all_of] == [("braking", {"min_decel": 0.5})]
+    assert oracle_state(scenario, "stopped") == ego_states["stopped"]  # states are kept as they are
 
 
 def test_aeb_brakes_hard_for_the_child_and_passes(prepared):

@@ -14,7 +14,8 @@ The action is **acceleration [m/s^2] and curvature [1/m]**:
 
 Built in (:data:`BUILTIN`): ``constant-speed`` (holds the route's cruise speed, ignores everyone),
 ``idm`` (Intelligent Driver Model behind the nearest actor in the ego's path; stops for red and
-yellow lights near its path; yields to pedestrians and crossing actors about to enter its path),
+yellow lights near its path; yields to pedestrians and crossing actors about to enter its path;
+stops for an emergency vehicle with its siren on that comes closer within 40 m),
 ``aeb`` (constant speed plus full emergency braking when the time to collision with something in
 its path falls below 1.5 s). All three steer along the route (:func:`route_curvature`).
 
@@ -190,10 +191,12 @@ def _reach(ego: EgoState, a: ActorState) -> float:
     return ego.width / 2 + max(a.width, a.length if a.category == "pedestrian" else a.width) / 2 + door + 0.3
 
 
-def obstacles_in_path(obs: Observation, *, horizon: float = 0.0) -> list[Obstacle]:
+def obstacles_in_path(obs: Observation, *, horizon: float = 0.0,
+                      pedestrian_margin: float = 0.0) -> list[Obstacle]:
     """Actors in the ego's path ahead, nearest first; with ``horizon`` [s] > 0 also those whose
     constant-velocity motion brings them into the path within that time (crossing actors), as
-    stopped obstacles where they will enter it."""
+    stopped obstacles where they will enter it. A pedestrian counts as in the path also within
+    ``pedestrian_margin`` [m] beside it (a yielding driver waits until it has stepped clear)."""
     ego = obs.ego
     out: list[Obstacle] = []
     for a in obs.actors:
@@ -204,13 +207,14 @@ def obstacles_in_path(obs: Observation, *, horizon: float = 0.0) -> list[Obstacl
         if s <= 0 or s > ROUTE_AHEAD + ego.length:
             continue
         along = a.vx * ux + a.vy * uy
-        if abs(lat) <= _reach(ego, a):
+        reach = _reach(ego, a) + (pedestrian_margin if a.category == "pedestrian" else 0.0)
+        if abs(lat) <= reach:
             out.append(Obstacle(front, along, a.name))
             continue
         if horizon > 0:
             lat_rate = -a.vx * uy + a.vy * ux
             if lat * lat_rate < 0 and abs(lat_rate) > 0.2:  # moving towards the path
-                t_in = (abs(lat) - _reach(ego, a)) / abs(lat_rate)
+                t_in = (abs(lat) - reach) / abs(lat_rate)
                 if t_in <= horizon:
                     out.append(Obstacle(front + along * t_in, 0.0, a.name))
     return sorted(out, key=lambda o: o.gap)
@@ -230,6 +234,24 @@ def red_lights_ahead(obs: Observation, *, reach: float = 12.0, stop_line: float 
             if a.light_state == "yellow" and gap < ego.speed ** 2 / (2 * 3.0):
                 continue  # too close to stop comfortably on yellow: go through
             out.append(Obstacle(max(gap, 0.0), 0.0, a.name))
+    return out
+
+
+def sirens_closing(obs: Observation, *, reach: float = 40.0, stop_in: float = 12.0) -> list[Obstacle]:
+    """A stop line ``stop_in`` [m] ahead for each emergency vehicle with its siren on within
+    ``reach`` [m] that is coming closer (drivers stop and let it pass), else nothing."""
+    ego = obs.ego
+    ex, ey = ego.x, ego.y
+    evx, evy = ego.speed * math.cos(ego.heading), ego.speed * math.sin(ego.heading)
+    out = []
+    for a in obs.actors:
+        if a.siren != "on":
+            continue
+        dx, dy = a.x - ex, a.y - ey
+        dist = math.hypot(dx, dy)
+        closing = -(dx * (a.vx - evx) + dy * (a.vy - evy)) / max(dist, 1e-6)
+        if dist <= reach and closing > 0.5:
+            out.append(Obstacle(stop_in, 0.0, a.name))
     return out
 
 
@@ -255,12 +277,16 @@ class IDM:
     comfort_decel: float = 3.0  # b [m/s^2]
     delta: float = 4.0
     yield_horizon: float = 3.0  # [s]: crossing actors entering the path this soon are yielded to
+    # [m] beside its path within which a pedestrian is still yielded to: it stops and waits
+    # until the pedestrian has stepped clear, rather than rolling past its back
+    pedestrian_margin: float = 1.5
 
     def __call__(self, obs: Observation) -> Action:
         ego = obs.ego
         v, v0 = ego.speed, max(ego.cruise_speed, 0.1)
         acc = self.max_accel * (1.0 - (v / v0) ** self.delta)
-        ahead = obstacles_in_path(obs, horizon=self.yield_horizon) + red_lights_ahead(obs)
+        ahead = (obstacles_in_path(obs, horizon=self.yield_horizon, pedestrian_margin=self.pedestrian_margin)
+                 + red_lights_ahead(obs) + sirens_closing(obs))
         if ahead:
             lead = min(ahead, key=lambda o: o.gap)
             dv = v - max(lead.speed, 0.0)

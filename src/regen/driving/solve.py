@@ -8,7 +8,9 @@ the solver's sufficient assumptions, minimised, name the constraints in conflict
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 from regen.core.scenario import SolverReport
 from regen.cpsat import make_solver
@@ -42,14 +44,30 @@ def _minimise_core(M: PlacementModel, core: list[str], time_limit: float) -> lis
     return keep
 
 
+def placement_model(ego: EgoTemplate, actors: list[ActorSpec]) -> PlacementModel:
+    """The placement model of ``actors`` around ``ego``: every primitive's parameters and named
+    constraints, without objective or assumptions (for callers that solve it their own way,
+    e.g. :mod:`regen.driving.variants`)."""
+    M = PlacementModel(ego)
+    for a in actors:
+        for_actor(a.asset, a.primitive).constrain(M, a)
+    return M
+
+
+def solved_params(M: PlacementModel, value: Callable[[Any], int],
+                  actors: list[ActorSpec]) -> dict[str, dict[str, float]]:
+    """The :data:`SOLVED` parameters of each actor (metres, m/s, seconds) from a solution;
+    ``value`` reads a variable (e.g. ``solver.Value``)."""
+    return {a.name: {k: value(var) / DM for k, var in M.vars.get(a.name, {}).items() if k in SOLVED}
+            for a in actors}
+
+
 def solve(ego: EgoTemplate, actors: list[ActorSpec], *, seed: int = 0, time_limit: float = 2.0) -> Solution:
     """Solve the placement model (``time_limit`` [s]); an infeasible model names its
     conflicting constraints."""
     t0 = time.perf_counter()
-    M = PlacementModel(ego)
+    M = placement_model(ego, actors)
     specs = [for_actor(a.asset, a.primitive) for a in actors]
-    for a, spec in zip(actors, specs, strict=True):
-        spec.constrain(M, a)
     # prefer the middle of each speed class and gaps that are not extreme: minimise distance of
     # speeds from their class centre (deterministic, and avoids boundary solutions)
     terms = []
@@ -77,11 +95,7 @@ def solve(ego: EgoTemplate, actors: list[ActorSpec], *, seed: int = 0, time_limi
     if status not in (M.cp.OPTIMAL, M.cp.FEASIBLE):
         report.conflicts = [f"the solver stopped without a solution ({solver.StatusName(status)})"]
         return Solution(report)
-    params: dict[str, dict[str, float]] = {}
-    for a in actors:
-        params[a.name] = {k: solver.Value(var) / DM for k, var in M.vars.get(a.name, {}).items()
-                          if k in SOLVED}
-    return Solution(report, params)
+    return Solution(report, solved_params(M, solver.Value, actors))
 
 
-__all__ = ["ActorSpec", "Solution", "solve"]
+__all__ = ["SOLVED", "ActorSpec", "Solution", "placement_model", "solve", "solved_params"]
