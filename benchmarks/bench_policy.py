@@ -1,6 +1,10 @@
 """Policy-in-the-loop benchmark: simulated seconds per wall second without drawing, and test
 throughput, for the built-in policies on the hand-written driving chains.
 
+Test throughput is measured twice: per episode (program compiled, oracle included) and as
+``regen test`` runs it, :func:`regen.driving.behavior_test.run_tests` over a run folder holding
+the scenarios (tests per minute, with and without the GIF of each failure).
+
 Per scenario the Scenic program is compiled once (cached across policies and episodes, as
 ``regen test`` does); "episode" time is scene generation + the Newtonian loop with the policy +
 building the trace; "test" time adds the oracle (collisions and FSM ego states).
@@ -20,11 +24,12 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "driving"))
 from driving_chains import FEASIBLE  # noqa: E402  (the hand-written chains)
 
-from regen.driving.behavior_test import judge  # noqa: E402
+from regen.driving.behavior_test import judge, run_tests  # noqa: E402
+from regen.driving.failure_gif import keep_failures  # noqa: E402
 from regen.driving.policies import BUILTIN, load_policy  # noqa: E402
 from regen.driving.policy_loop import prepare, run_policy  # noqa: E402
 from regen.pipeline import run_path  # noqa: E402
-from regen.runfolder import ScenarioFolder  # noqa: E402
+from regen.runfolder import RunFolder, ScenarioFolder  # noqa: E402
 
 
 def main() -> None:
@@ -34,7 +39,7 @@ def main() -> None:
     work = Path(tempfile.mkdtemp(prefix="regen-bench-policy-"))
     scenarios = []
     for key, paths in FEASIBLE.items():
-        folder = work / f"{key}-0"
+        folder = work / RunFolder.SCENARIOS / f"{key}-0"  # work/ is a run folder for run_tests
         if run_path(paths[0], folder, pictures=False).verdict.feasible:
             scenarios.append((key, ScenarioFolder(folder).scenario()))
     print(f"{'scenario':22s} {'policy':15s} {'compile [s]':>11s} {'episode [s]':>11s} "
@@ -69,6 +74,24 @@ def main() -> None:
           f"min {min(speeds):.0f}x (target >= 50x)")
     print(f"test throughput (program compiled, per scenario variant): {tests / total_test:.1f} tests/s, "
           f"{sim_total / total_test:.0f} simulated s per wall s")
+    suite_throughput(work)
+
+
+def suite_throughput(run: Path) -> None:
+    """Tests per minute of run_tests over the run folder, per built-in policy."""
+    print(f"\nregen test over {run} (run_tests, every scenario once per policy):")
+    print(f"{'policy':15s} {'tests':>5s} {'failed':>6s} {'wall [s]':>9s} {'tests/min':>9s} "
+          f"{'with GIFs [s]':>13s} {'tests/min':>9s}")
+    for name in BUILTIN:
+        t0 = time.perf_counter()
+        report = run_tests(run, name)
+        plain = time.perf_counter() - t0
+        t1 = time.perf_counter()
+        run_tests(run, name, on_episode=keep_failures(run / RunFolder.TESTS / name, policy=name))
+        drawn = time.perf_counter() - t1
+        n, failed = len(report.ran), report.summary()["failed"]
+        print(f"{name:15s} {n:5d} {failed:6d} {plain:9.2f} {60 * n / plain:9.0f} {drawn:13.2f} "
+              f"{60 * n / drawn:9.0f}")
 
 
 if __name__ == "__main__":

@@ -272,6 +272,8 @@ class RunFolder:
     REPORT = "report.html"
     LOCK = ".lock"
     SCENARIOS = "scenarios"
+    TESTS = "tests"  # regen test: tests/<policy>/tests.json, junit.xml and failure pictures
+    TESTS_JSON = "tests.json"
 
     def __init__(self, path: str | Path):
         self.path = Path(path)
@@ -439,5 +441,23 @@ def read_graph(run: Path) -> Loaded:
     return read_model(Path(run) / RunFolder.GRAPH, ScenarioGraph)
 
 
+def read_tests(run: Path) -> dict[str, Loaded]:
+    """Behavior-test results of a run (``regen test``): policy folder name -> its
+    ``tests/<policy>/tests.json`` as a JSON object, sorted by name; a broken file gives a
+    problem, never an exception."""
+    base = Path(run) / RunFolder.TESTS
+    try:
+        found = sorted(p for p in base.iterdir() if (p / RunFolder.TESTS_JSON).exists())
+    except OSError:  # no tests/ folder (or an unreadable one): no behavior tests
+        return {}
+    out = {}
+    for p in found:
+        got = read_json(p / RunFolder.TESTS_JSON)
+        out[p.name] = got if not got.ok or isinstance(got.value, dict) else Loaded(
+            problem="unreadable: not a JSON object")
+    return out
+
+
 __all__ = ["Loaded", "RunFolder", "RunManifest", "RunSettings", "ScenarioFolder", "list_runs",
-           "merge_usage", "now", "read_graph", "read_json", "read_model", "read_summary", "read_text"]
+           "merge_usage", "now", "read_graph", "read_json", "read_model", "read_summary", "read_tests",
+           "read_text"]

@@ -11,7 +11,7 @@ import logging
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 from urllib.parse import quote
 
 from regen.core.behavior import Behavior
@@ -20,6 +20,9 @@ from regen.core.scenario import Scenario
 from regen.core.verdict import Verdict
 from regen.domains import ANIMATION, KEYFRAMES, ReportHints
 from regen.runfolder import Loaded, RunFolder, ScenarioFolder, read_json, read_model, read_text
+
+if TYPE_CHECKING:
+    from regen.report.tests_view import BehaviorTests
 
 log = logging.getLogger(__name__)
 
@@ -132,6 +135,7 @@ class RunView:
     hints: ReportHints = field(default_factory=ReportHints)  # the domain's captions
     scenarios: list[ScenarioView] = field(default_factory=list)
     stray: list[str] = field(default_factory=list)  # run.json names with no usable folder
+    tests: BehaviorTests | None = None  # regen test's results (RUN/tests/), None: none run
 
     @property
     def summary(self) -> Summary:
@@ -216,4 +220,7 @@ def load_run(run_dir: Path, manifest: dict[str, Any] | None = None) -> RunView:
     listed = view.run_field("scenarios")
     view.stray = [str(n) for n in listed if str(n) not in folders] if isinstance(listed, list) else []
     view.scenarios = [load_scenario(run, f, i) for i, f in enumerate(folders, start=1)]
+    from regen.report.tests_view import load_tests  # it reads this module's views
+
+    view.tests = load_tests(run.path, view.scenarios, view.behavior.text if view.behavior else "")
     return view

@@ -1,0 +1,181 @@
+"""The report's "Behavior tests" section: what ``regen test`` left in ``RUN/tests/<policy>/``.
+
+``tests.json`` is read as plain JSON, field by field, so that a file from an older or newer
+version, or one edited by hand, still shows what it can; a file that cannot be read at all is
+named with its problem. Failure pictures are linked only when they lie inside their policy's
+folder.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path, PurePosixPath
+from typing import Any
+
+from regen.report.load import href
+from regen.runfolder import RunFolder, read_tests
+
+__all__ = ["BehaviorTests", "CaseRow", "PolicyTests", "RateRow", "load_tests"]
+
+STATUSES = ("passed", "failed", "skipped")
+JUNIT = "junit.xml"
+
+
+@dataclass
+class CaseRow:
+    """One test (a scenario variant run with the policy)."""
+
+    scenario: str  # scenario folder name
+    variant: int
+    status: str  # passed, failed, skipped, unknown
+    cause: str | None = None  # why it failed ('collision', 'ego_state_not_reached', ...)
+    message: str = ""
+    collision: bool = False
+    collision_with: str | None = None
+    min_ttc: float | None = None  # [s]
+    min_distance: float | None = None  # [m]
+    gif: str | None = None  # href of the failure's GIF, relative to report.html
+    anchor: str | None = None  # the scenario's section in the page
+    number: int | None = None  # the scenario's number in the page
+    cause_label: str = ""  # the scenario's root cause (its folder name when unknown)
+
+    @property
+    def ran(self) -> bool:
+        return self.status in ("passed", "failed")
+
+
+@dataclass
+class PolicyTests:
+    """One ``tests/<folder>/tests.json``."""
+
+    folder: str  # folder name under tests/
+    policy: str = ""  # the SPEC given to regen test
+    oracle: str = ""
+    problem: str | None = None  # why tests.json could not be read (then no cases)
+    cases: list[CaseRow] = field(default_factory=list)
+    files: dict[str, str] = field(default_factory=dict)  # file name -> href
+
+    def count(self, status: str) -> int:
+        return sum(1 for c in self.cases if c.status == status)
+
+    @property
+    def ran(self) -> list[CaseRow]:
+        return [c for c in self.cases if c.ran]
+
+    @property
+    def collisions(self) -> int:
+        return sum(1 for c in self.ran if c.collision)
+
+    @property
+    def collision_rate(self) -> float | None:
+        return self.collisions / len(self.ran) if self.ran else None
+
+    @property
+    def min_ttc(self) -> float | None:
+        """Smallest time to collision [s] over the tests that ran (None: nothing approached)."""
+        return min((c.min_ttc for c in self.ran if c.min_ttc is not None), default=None)
+
+    @property
+    def failures(self) -> list[CaseRow]:
+        return [c for c in self.cases if c.status == "failed"]
+
+
+@dataclass
+class RateRow:
+    """Collision rate of each policy over the tests of one behavior or one cause."""
+
+    label: str
+    kind: str  # 'behavior' or 'cause'
+    anchor: str | None = None  # the (first) scenario section of this cause
+    cells: list[tuple[int, int]] = field(default_factory=list)  # (collisions, tests) per policy
+
+
+@dataclass
+class BehaviorTests:
+    policies: list[PolicyTests] = field(default_factory=list)
+    rates: list[RateRow] = field(default_factory=list)
+
+
+def _num(value: Any) -> float | None:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        return None
+    return float(value)
+
+
+def _text(value: Any) -> str:
+    return value if isinstance(value, str) else ""
+
+
+def _gif(base: Path, folder: str, value: Any) -> str | None:
+    """href of a picture named in tests.json, if it is a file inside the policy's folder."""
+    if not isinstance(value, str) or not value or "\\" in value:
+        return None
+    rel = PurePosixPath(value)
+    if rel.is_absolute() or ".." in rel.parts or not (base / rel).is_file():
+        return None
+    return href(RunFolder.TESTS, folder, *rel.parts)
+
+
+def _case(raw: dict[str, Any], base: Path, folder: str) -> CaseRow:
+    status = raw.get("status")
+    variant = raw.get("variant")
+    return CaseRow(
+        scenario=_text(raw.get("scenario")) or "?",
+        variant=variant if isinstance(variant, int) and not isinstance(variant, bool) else 0,
+        status=status if status in STATUSES else "unknown",
+        cause=_text(raw.get("cause")) or None, message=_text(raw.get("message")),
+        collision=raw.get("collision") is True, collision_with=_text(raw.get("collision_with")) or None,
+        min_ttc=_num(raw.get("min_ttc")), min_distance=_num(raw.get("min_distance")),
+        gif=_gif(base, folder, raw.get("gif")))
+
+
+def read_policy(run_dir: Path, folder: str, loaded) -> PolicyTests:
+    """One policy's tests from its :class:`~regen.runfolder.Loaded` tests.json."""
+    base = Path(run_dir) / RunFolder.TESTS / folder
+    out = PolicyTests(folder=folder, policy=folder)
+    out.files = {name: href(RunFolder.TESTS, folder, name)
+                 for name in (RunFolder.TESTS_JSON, JUNIT) if (base / name).is_file()}
+    if not loaded.ok:
+        out.problem = loaded.problem
+        return out
+    data = loaded.value
+    out.policy = _text(data.get("policy")) or folder
+    out.oracle = _text(data.get("oracle"))
+    cases = data.get("cases")
+    if not isinstance(cases, list):
+        out.problem = "unreadable: no list of cases"
+        return out
+    out.cases = [_case(c, base, folder) for c in cases if isinstance(c, dict)]
+    if len(out.cases) < len(cases):
+        out.problem = f"{len(cases) - len(out.cases)} case(s) unreadable and left out"
+    return out
+
+
+def load_tests(run_dir: Path, scenarios: list, behavior: str) -> BehaviorTests | None:
+    """The section's content, or None when the run has no behavior tests. ``scenarios`` are the
+    page's :class:`~regen.report.load.ScenarioView` objects (for causes and links)."""
+    found = read_tests(run_dir)
+    if not found:
+        return None
+    views = {sv.folder: sv for sv in scenarios}
+    if not behavior:  # no run.json: the scenarios carry the behavior too
+        behavior = next((sv.scenario.behavior.text for sv in scenarios if sv.scenario), "")
+    out = BehaviorTests(policies=[read_policy(run_dir, name, got) for name, got in found.items()])
+    causes: dict[str, RateRow] = {}
+    for pt in out.policies:
+        for c in pt.cases:
+            sv = views.get(c.scenario)
+            if sv is not None:
+                c.anchor, c.number = sv.anchor, sv.number
+                c.cause_label = sv.chain[0] if sv.chain else sv.folder
+            else:
+                c.cause_label = c.scenario
+            causes.setdefault(c.cause_label, RateRow(c.cause_label, "cause", c.anchor))
+    rows = [RateRow(behavior or "the run's behavior", "behavior"), *causes.values()]
+    for row in rows:
+        for pt in out.policies:
+            mine = [c for c in pt.ran if row.kind == "behavior" or c.cause_label == row.label]
+            row.cells.append((sum(1 for c in mine if c.collision), len(mine)))
+    out.rates = rows
+    return out
