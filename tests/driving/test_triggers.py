@@ -1,5 +1,6 @@
 """Reactive triggers: the fire function, the time warp, and scenarios that unfold in front of a
-slower and a faster ego driven by a policy (real Scenic Newtonian simulator)."""
+slower and a faster ego driven by a policy (real Scenic Newtonian simulator): a child crosses, a
+door opens, a car cuts in or changes into the ego's lane."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))  # the tests folder is not a package
-from driving_chains import FEASIBLE  # noqa: E402
+from driving_chains import FEASIBLE, chain  # noqa: E402
 
 from regen.driving.ego import EGO_TEMPLATES  # noqa: E402
 from regen.driving.triggers import (  # noqa: E402
@@ -18,6 +19,7 @@ from regen.driving.triggers import (  # noqa: E402
     approach,
     ego_slower,
     fire_times,
+    offset_reached,
     scenic_source,
     template_position,
     trigger_fired,
@@ -52,6 +54,20 @@ def test_time_and_ego_slower_kinds() -> None:
     assert not trigger_fired(at, 2.7, 1e3, 0.0, 30.0) and trigger_fired(at, 2.8, -1e3, 0.0, 0.0)
     slower = Trigger(kind="ego_slower", t=6.8, below=5.0).spec()
     assert not trigger_fired(slower, 9.0, 0.0, 0.0, 5.0) and trigger_fired(slower, 0.0, 0.0, 0.0, 4.9)
+
+
+def test_offset_fires_when_the_actor_reaches_its_template_offset_from_its_side() -> None:
+    gains = Trigger(kind="offset", t=3.0, offset=5.0, rate=3.0, late=6.0).spec()  # pulls 5 m ahead
+    assert not trigger_fired(gains, 3.0, 0.0, 0.0, 10.0, 4.9, -3.5)  # 4.9 m ahead
+    assert trigger_fired(gains, 0.1, 0.0, 0.0, 10.0, 5.0, -3.5)  # 5 m ahead, any time
+    closes = Trigger(kind="offset", t=3.0, offset=30.0, rate=-2.0, late=6.0).spec()  # the ego closes in
+    assert not trigger_fired(closes, 3.0, 0.0, 0.0, 10.0, 30.1, -3.5)
+    assert trigger_fired(closes, 3.0, 0.0, 0.0, 10.0, 29.0, -3.5)
+    assert trigger_fired(closes, 6.0, 0.0, 0.0, 10.0, 80.0, -3.5)  # late: fires whatever the offset
+    assert not trigger_fired(closes, 5.9, 0.0, 0.0, 10.0)  # without the actor's position: at late
+    ego = EGO_TEMPLATES["slow_down"]  # at 12 m/s from s = -150 m
+    trig = offset_reached(ego, -100.0, 3.0, 2.0)
+    assert (trig.kind, trig.offset, trig.late) == ("offset", -100.0 - (-150.0 + 24.0), 5.0)
 
 
 def test_time_warp_holds_then_runs_from_the_trigger_time() -> None:
@@ -107,9 +123,15 @@ def _absolute(prepared):
     from regen.driving.scenic_writer import write_program
     from regen.driving.simulate import compile_program
 
-    plans = [dataclasses.replace(p, trigger=None) for p in prepared.plans]
+    plans = [dataclasses.replace(p, trigger=None, lane_change=None) for p in prepared.plans]
     text = write_program(plans, map_path=prepared.map_path, dt=prepared.dt, max_steps=prepared.steps)
     return dataclasses.replace(prepared, plans=plans, compiled=compile_program(text))
+
+
+# a slower car ahead in the next lane changes into the ego's lane, 1 to 3 s before the ego brakes
+CHANGES_IN = chain("stop_abruptly", "a car changes into the ego's lane",
+                   ("sedan", {"behavior": ["change_lane"], "start_location": ["ahead_adjacent_lane"],
+                              "target_speed": ["moderate"]}))
 
 
 @pytest.fixture(scope="module")
@@ -124,9 +146,10 @@ def grounded(tmp_path_factory):
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("REGEN_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
         run = tmp_path_factory.mktemp("run")
-        for name, chain in (("child", FEASIBLE["stop_abruptly"][0]), ("door", FEASIBLE["stop_abruptly"][3])):
+        for name, path in (("child", FEASIBLE["stop_abruptly"][0]), ("door", FEASIBLE["stop_abruptly"][3]),
+                           ("cut_in", FEASIBLE["slow_down"][2]), ("change_lane", CHANGES_IN)):
             folder = run / RunFolder.SCENARIOS / name
-            outcome = run_path(chain, folder, pictures=False)
+            outcome = run_path(path, folder, pictures=False)
             assert outcome.verdict.feasible, outcome.verdict.reason
             out[name] = prepare(RunFolder(run).scenario(name).scenario())
     return out
@@ -194,3 +217,60 @@ def test_door_opens_as_a_slower_ego_comes_near_and_the_policy_sees_it_when_recor
     to_go = (car.x - ego.x[k]) + abs(car.y - ego.y[k])  # ahead + aside, as the trigger measures
     assert car.trigger.distance - 1.0 < to_go <= car.trigger.distance + 1e-3
     assert seen == door[:len(seen)]  # what the policy observed is what the trace recorded
+
+
+def _cause_steps(prepared, trace, actor: str) -> list[list[int]]:
+    """Per cause state of ``actor`` in the FSM (in order), the steps at which it holds."""
+    from regen.verify.monitor import evaluate_state
+
+    states = [s for s in prepared.scenario.fsm.states if s.actor == actor]
+    assert len(states) == 2, [s.name for s in states]  # in the next lane, then in the ego's lane ahead
+    return [[k for k, ok in enumerate(evaluate_state(s, trace, "driving")) if ok] for s in states]
+
+
+def _changes_in_ahead(prepared, trace, actor: str) -> bool:
+    """Whether ``actor``'s cause states hold in order and it is then in the ego's lane, ahead."""
+    before, after = _cause_steps(prepared, trace, actor)
+    if not before or not after or after[-1] <= before[0]:
+        return False
+    ego, car = trace.actors["ego"], trace.actors[actor]
+    k = next(k for k in after if k > before[0])
+    return car.states["lane"][k] == ego.states["lane"][k] and car.x[k] - ego.x[k] > 3.0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["cut_in", "change_lane"])
+def test_lane_change_lands_ahead_of_a_slower_and_a_faster_ego(grounded, name) -> None:
+    from regen.driving.policy_loop import run_policy
+
+    prep = grounded[name]
+    car = next(p for p in prep.plans if p.lane_change is not None)
+    assert car.trigger is not None and car.trigger.kind == "offset"
+    v = prep.template.speed_event
+    landed = {}
+    for factor in (0.6, 1.4):
+        trace = run_policy(prep, _hold(factor * v)).trace
+        assert _changes_in_ahead(prep, trace, car.name), f"{factor}x: {car.name} did not change in ahead"
+        landed[factor] = _cause_steps(prep, trace, car.name)[1][0]
+    assert landed[0.6] > landed[1.4]  # later in front of the slower ego, earlier in front of the faster
+    # at its fixed place and time, it lands beside or behind the faster ego or far ahead of the slower
+    fixed = _absolute(prep)
+    assert not all(_changes_in_ahead(prep, run_policy(fixed, _hold(f * v)).trace, car.name) for f in (0.6, 1.4))
+
+
+def test_template_ego_meets_the_lane_change_of_its_fixed_route(grounded) -> None:
+    """For the template ego the lane change laid out at the trigger is the fixed route's, to the bit."""
+    from regen.driving.ground import plans_for
+    from regen.driving.scenic_writer import write_program
+    from regen.driving.simulate import run_program
+
+    prep = grounded["cut_in"]
+    _, plans = plans_for(prep.scenario)
+    runs = []
+    for ps in (plans, [dataclasses.replace(p, trigger=None, lane_change=None) for p in plans]):
+        text = write_program(ps, map_path=prep.map_path, dt=prep.dt, max_steps=prep.steps)
+        runs.append(run_program(text, steps=prep.steps, dt=prep.dt))
+    laid_out, fixed = runs
+    car = next(p.name for p in plans if p.lane_change is not None)
+    assert laid_out.y[car] == fixed.y[car] and laid_out.x[car] == fixed.x[car]
+    assert min(laid_out.y[car]) < max(laid_out.y[car]) - 3.0  # it did change lanes

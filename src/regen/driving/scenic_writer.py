@@ -17,7 +17,7 @@ from importlib import resources
 
 import jinja2
 
-from regen.driving.plan import ActorPlan
+from regen.driving.plan import ActorPlan, LaneChange
 from regen.driving.triggers import KINDS, Trigger, scenic_source
 from regen.errors import ConfigError
 
@@ -68,6 +68,12 @@ def _trigger(trigger: Trigger | None) -> str:
     return "(" + ", ".join([repr(kind)] + [_num(v) for v in numbers]) + ")"
 
 
+def _lane_change(lane_change: LaneChange | None) -> str:
+    if lane_change is None:
+        return "None"
+    return "(" + ", ".join(_num(v) for v in lane_change.spec()) + ")"
+
+
 @lru_cache(maxsize=1)
 def _template() -> jinja2.Template:
     text = resources.files("regen.driving").joinpath("prompts", "program.scenic.j2").read_text("utf-8")
@@ -95,6 +101,8 @@ def write_program(plans: list[ActorPlan], *, map_path: str, dt: float, max_steps
             raise ConfigError(f"actor {p.name!r}: unknown Scenic class {p.cls!r}")
         if p.scenic_behavior not in _SCENIC_BEHAVIORS:
             raise ConfigError(f"actor {p.name!r}: unknown Scenic behavior {p.scenic_behavior!r}")
+        if p.lane_change is not None and p.trigger is None:
+            raise ConfigError(f"actor {p.name!r}: a lane change is laid out when a trigger fires; it has none")
         var = scenic_identifier(p.name)
         if var in seen:
             raise ConfigError(f"two actors map to the Scenic identifier {var!r}; rename one")
@@ -112,9 +120,12 @@ def write_program(plans: list[ActorPlan], *, map_path: str, dt: float, max_steps
             "speed": p.speed0 > 0 and p.cls == "Car",
             "vx": _num(p.speed0 * math.cos(p.heading)), "vy": _num(p.speed0 * math.sin(p.heading)),
             "behavior": behavior,
-            "route": _points(p.route) if behavior else "",
+            # a lane-changing car follows its lane until its trigger lays the change out
+            "route": _points(p.lane_change.lane_line(p.x, p.y) if p.lane_change else p.route)
+            if behavior else "",
             "schedule": _schedule(p.schedule) if behavior else "",
             "trigger": _trigger(p.trigger) if behavior else "",
+            "lane_change": _lane_change(p.lane_change),
         })
     return _template().render(
         title=" ".join(re.sub(r"[^A-Za-z0-9 _.,:;()-]", " ", title).split())[:200],

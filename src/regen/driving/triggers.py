@@ -16,6 +16,13 @@ moment, so that any ego sets it off in the same situation:
     is measured along its L-shaped way there and the distance shrinks all the way.
 ``ego_slower``
     the ego's speed falls below ``below`` [m/s] (a follower reacts to the ego's braking).
+``offset``
+    the actor's offset ahead of the ego along the frame reaches ``offset`` [m] (what it is in
+    the template at ``t_trig``) from the side it comes from: from behind when the template's
+    offset grows (``rate`` [m/s] > 0, a faster car pulling ahead), from ahead when it shrinks
+    (the ego catching up); at the latest at ``late`` [s]. It needs the actor's own position
+    (``ax``, ``ay``); without it (the recorded property states, :mod:`regen.driving.record`,
+    which a lane-changing vehicle never switches) it fires at ``late``.
 ``time``
     absolute time ``t_trig`` (an ego that waits: nothing about it tells when to act).
 
@@ -44,13 +51,15 @@ HOLD = 1e-3  # an untriggered actor holds its schedule this long [s] before t_tr
 NEAR_TOL = 1e-3  # distance tolerance [m]: float noise must not delay a trigger by a step
 TTA_TOL = 1e-4  # time-to-arrival tolerance [s]
 TIME_TOL = 1e-6  # absolute-time tolerance [s]
+LATE = 3.0  # an offset trigger fires at the latest this long after its template time [s]
 STEP = 0.1  # the simulation step [s] (10 Hz) at which the template ego's speed is sampled
 SLOWER_FRACTION = 0.5  # an ego_slower trigger fires below this fraction of the ego's event speed
 
-Kind = Literal["approach", "ego_slower", "time"]
-KINDS: tuple[str, ...] = ("approach", "ego_slower", "time")
-# (kind, t_trig [s], px [m], py [m], ux, uy, distance [m], tta [s], below [m/s])
-Spec = tuple[str, float, float, float, float, float, float, float, float]
+Kind = Literal["approach", "ego_slower", "offset", "time"]
+KINDS: tuple[str, ...] = ("approach", "ego_slower", "offset", "time")
+# (kind, t_trig [s], px [m], py [m], ux, uy, distance [m], tta [s], below [m/s], offset [m],
+#  rate [m/s], late [s])
+Spec = tuple[str, float, float, float, float, float, float, float, float, float, float, float]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -61,25 +70,36 @@ class Trigger:
     t: float  # template trigger time t_trig [s]
     x: float = 0.0  # reference point [m] (approach)
     y: float = 0.0  # [m]
-    ux: float = 1.0  # unit direction of the ego's frame (approach)
+    ux: float = 1.0  # unit direction of the ego's frame (approach, offset)
     uy: float = 0.0
     distance: float = 0.0  # fires within this distance [m] ahead of the ego (approach)
     tta: float = 0.0  # or within this time to arrival [s] (approach)
     below: float = 0.0  # fires when the ego is slower than this [m/s] (ego_slower)
+    offset: float = 0.0  # fires when the actor is this far ahead of the ego [m] (offset)
+    rate: float = 0.0  # how fast that offset changes in the template [m/s] (offset; sign: direction)
+    late: float = 0.0  # fires at this time [s] at the latest (offset)
 
     def spec(self) -> Spec:
         """The tuple :func:`trigger_fired` and the Scenic program take."""
-        return (self.kind, self.t, self.x, self.y, self.ux, self.uy, self.distance, self.tta, self.below)
+        return (self.kind, self.t, self.x, self.y, self.ux, self.uy, self.distance, self.tta, self.below,
+                self.offset, self.rate, self.late)
 
 
-def trigger_fired(spec, t, x, y, ego_speed):
+def trigger_fired(spec, t, x, y, ego_speed, ax=None, ay=None):
     """Whether the trigger ``spec`` (:meth:`Trigger.spec`) fires at time ``t`` [s] for an ego
-    at (``x``, ``y``) [m] moving at ``ego_speed`` [m/s]."""
-    kind, t_trig, px, py, ux, uy, near, tta, below = spec
+    at (``x``, ``y``) [m] moving at ``ego_speed`` [m/s], the actor at (``ax``, ``ay``) [m]."""
+    kind, t_trig, px, py, ux, uy, near, tta, below, offset, rate, late = spec
     if kind == "time":
         return t >= t_trig - TIME_TOL
     if kind == "ego_slower":
         return ego_speed < below
+    if kind == "offset":
+        if t >= late - TIME_TOL:
+            return True
+        if ax is None:
+            return False
+        ahead = (ax - x) * ux + (ay - y) * uy  # [m] the actor is ahead of the ego along the frame
+        return ahead >= offset - NEAR_TOL if rate >= 0.0 else ahead <= offset + NEAR_TOL
     dx, dy = px - x, py - y
     along = dx * ux + dy * uy  # [m] the point lies ahead of the ego along the frame
     gap = along + abs(dy * ux - dx * uy)  # [m] to go there: ahead + aside
@@ -87,13 +107,14 @@ def trigger_fired(spec, t, x, y, ego_speed):
     return passed or gap <= near + NEAR_TOL or (ego_speed > MIN_SPEED and gap / ego_speed <= tta + TTA_TOL)
 
 
-def warped_time(spec, t_fire, t, x, y, ego_speed):
+def warped_time(spec, t_fire, t, x, y, ego_speed, ax=None, ay=None):
     """``(t_fire, schedule time [s])`` of an actor at time ``t`` [s]: ``t_fire`` [s] is when its
     trigger ``spec`` fired (None: not yet; it is set here if it fires now, from the ego at
-    (``x``, ``y``) [m] and ``ego_speed`` [m/s]); without a trigger (None) the time is ``t``."""
+    (``x``, ``y``) [m] and ``ego_speed`` [m/s] and the actor at (``ax``, ``ay``) [m]); without
+    a trigger (None) the time is ``t``."""
     if spec is None:
         return None, t
-    if t_fire is None and trigger_fired(spec, t, x, y, ego_speed):
+    if t_fire is None and trigger_fired(spec, t, x, y, ego_speed, ax, ay):
         t_fire = t
     if t_fire is None:
         return None, min(t, spec[1] - HOLD)
@@ -147,6 +168,17 @@ def approach(ego: EgoTemplate, point: tuple[float, float], t: float) -> Trigger:
                    distance=round(gap, 4), tta=round(gap / ego.speed_event, 4))
 
 
+def offset_reached(ego: EgoTemplate, s: float, rate: float, t: float) -> Trigger:
+    """Fires when the actor is as far ahead of the ego along the frame as it is in the template
+    at ``t`` [s], where it is at ``s`` [m] along the frame, its offset changing at ``rate``
+    [m/s]; at the latest :data:`LATE` after ``t``."""
+    fr = ego.frame
+    ex, ey = template_position(ego, t)
+    s_ego = (ex - fr.ox) * fr.ux + (ey - fr.oy) * fr.uy
+    return Trigger(kind="offset", t=t, ux=fr.ux, uy=fr.uy, offset=round(s - s_ego, 4), rate=round(rate, 4),
+                   late=round(t + LATE, 4))
+
+
 def ego_slower(ego: EgoTemplate) -> Trigger:
     """Fires when the ego brakes below :data:`SLOWER_FRACTION` of its event speed; ``t_trig``
     is the first step at which the template ego (full brake from its event) is that slow."""
@@ -160,5 +192,5 @@ def at_time(t: float) -> Trigger:
     return Trigger(kind="time", t=t)
 
 
-__all__ = ["KINDS", "Trigger", "approach", "at_time", "ego_slower", "fire_times", "scenic_source",
-           "template_position", "trigger_fired", "warped_time"]
+__all__ = ["KINDS", "LATE", "Trigger", "approach", "at_time", "ego_slower", "fire_times", "offset_reached",
+           "scenic_source", "template_position", "trigger_fired", "warped_time"]

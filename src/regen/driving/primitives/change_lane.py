@@ -1,4 +1,8 @@
-"""change_lane: a slower vehicle ahead in the next lane changes into the ego's lane."""
+"""change_lane: a slower vehicle ahead in the next lane changes into the ego's lane.
+
+It keeps pace with the ego and changes lanes as far ahead of it as in the template, whatever the
+ego's speed (:func:`regen.driving.primitives._lanes.lane_change_plan`).
+"""
 
 from __future__ import annotations
 

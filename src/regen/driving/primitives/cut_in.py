@@ -1,4 +1,8 @@
-"""cut_in: a faster vehicle overtakes the ego in the next lane and cuts in close in front."""
+"""cut_in: a faster vehicle overtakes the ego in the next lane and cuts in close in front.
+
+It keeps pace with the ego and cuts in as far ahead of it as in the template, whatever the ego's
+speed (:func:`regen.driving.primitives._lanes.lane_change_plan`).
+"""
 
 from __future__ import annotations
 
