@@ -57,7 +57,7 @@ def record_generate(llm_spec: str) -> None:
     run = Path(tempfile.mkdtemp(prefix="regen-record-"))
     try:
         t0 = time.perf_counter()
-        res = generate(behavior, run, settings=RunSettings(llm=llm_spec, max_scenarios=2, pictures=False))
+        res = generate(behavior, run, settings=RunSettings(llm=llm_spec, pictures=False))  # the main job's defaults
         n = CallCache(run / "llm-cache.sqlite").export_json(OUT / f"{name}.json")
         print(f"{name}: {n} answers, {res.feasible}/{len(res.outcomes)} feasible, "
               f"{time.perf_counter() - t0:.0f} s")

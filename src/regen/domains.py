@@ -55,6 +55,9 @@ class Wording:
     situation: str  # "plausibly and directly cause the effect in a realistic <situation> situation"
     cause_rule: str  # event proposal: what a cause must be (and must not be)
     value_hint: str  # property proposal: how free values (locations) are phrased, with an example
+    #: edge judge: worked examples shown before each question, as (effect, candidate cause,
+    #: "yes" or "no", reason); a few short ones of the domain, none from the labeled edge set
+    judge_examples: tuple[tuple[str, str, str, str], ...] = ()
     #: Regular expressions over the lower-cased cause text that mark a cause as a restatement of
     #: the robot's own command, programming, sensors or mechanics rather than a context of the
     #: world; expansion rejects such causes after the judge (``by="rule"``), unless the user
@@ -110,6 +113,21 @@ class DomainBackend(ABC):
         """Raise :class:`ConfigError` (saying what to do) when the behavior cannot run in this
         domain, before any model call is spent: an unknown ego template or reward, say.
         Default: every behavior of the domain is accepted."""
+        return None
+
+    def property_choices(self, asset: str, behavior: Behavior | None = None
+                         ) -> tuple[str | None, dict[str | None, dict[str, list[str]]]] | None:
+        """Properties whose values the simulator restricts, or None.
+
+        ``(key, {value of key: {property: allowed values}})``: once the entity's ``key``
+        property (a driving actor's ``behavior``) takes a value, the other properties may only take
+        the values listed for it, and a property left out does not apply at all (a stationary
+        actor has no speed). With ``key`` None the one entry (under None) holds whatever the
+        entity's values: the start state of the object a manipulation task acts on, which the
+        task fixes. Expansion asks the model for one consistent choice, so the graph never holds
+        a combination grounding cannot honor. ``behavior``: the behavior being explained.
+        Default: no restrictions.
+        """
         return None
 
     def settings_key(self, behavior: Behavior) -> dict[str, str | None]:

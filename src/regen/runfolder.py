@@ -47,7 +47,7 @@ class RunSettings(Model):
     llm: str = "local"
     depth: int = _LIMITS.max_depth  # event layers behind the behavior
     max_nodes: int = _LIMITS.max_nodes  # accepted cause events
-    max_scenarios: int = 2
+    max_scenarios: int = 3
     causes: int = _LIMITS.max_causes  # candidates per proposal call
     max_entities: int = _LIMITS.max_entities  # entities kept per event
     prior: str | None = None

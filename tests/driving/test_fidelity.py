@@ -187,9 +187,9 @@ OBSERVED_GRAPHS = {
                                             "target_speed": ["slow"]}),
                                  "adult1: the graph's start_location = 'oncoming_lane' cannot be honored: "
                                  "cross_the_road (its behavior in the graph) starts only at"),
-    "crossing_bicycle": (("bicycle", {"behavior": ["cross_the_road"]}),
-                         "bicycle1: the graph's behavior = 'cross_the_road' cannot be honored: a bicycle "
-                         "supports only"),
+    "walking_bicycle": (("bicycle", {"behavior": ["walk_along"]}),
+                        "bicycle1: the graph's behavior = 'walk_along' cannot be honored: a bicycle "
+                        "supports only"),
     "light_on_the_moon": (("traffic_light", {"light_state": ["turns_red"], "start_location": ["on the moon"]}),
                           "traffic_light1: the graph's start_location = 'on the moon' cannot be honored"),
     # only standing still starts in the ego's lane, and it has no speed
@@ -440,8 +440,9 @@ def test_recorded_answers_simulate_as_the_graph_chose_or_say_why_not(key, tmp_pa
     assert_honors_the_graph(scenario, path)
     if r.verdict.feasible:
         assert_causes_before_the_reaction(scenario)
-    else:  # the red light's own FSM wants it green again after red
-        assert key == "red_light" and r.verdict.status == "fsm_incomplete" and "turning_green" in r.verdict.reason
+    else:  # the model's own FSM wants the light green again after red, the ambulance braking
+        assert r.verdict.status == "fsm_incomplete"
+        assert {"red_light": "turning_green", "ambulance": "ambulance1: braking"}[key] in r.verdict.reason
 
 
 def test_a_path_the_rules_cannot_place_raises_before_any_model_call():

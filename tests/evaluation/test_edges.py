@@ -151,13 +151,13 @@ def test_model_judge_adapts_to_judge_candidates(monkeypatch):
     monkeypatch.setattr(expand_edges, "judge_candidates", fake)
     judge = model_judge(llm=object())
     assert judge("event->event", "stop", ["a", "b"], domain="driving") == {"a"}
+    # a property row goes to the same call shape as expansion: the whole entity at once
     got = judge("property->entity", "ambulance", ["siren: on", "siren: off", "start_location: behind"],
                 context="stop <- ambulance behind <- ambulance", domain="driving")
-    assert got == {"siren: on", "start_location: behind"}
+    assert got == {"siren: on"}
     assert seen[0] == ("event->event", "stop", ["a", "b"], "driving", None)
-    assert seen[1] == ("property->entity", "ambulance: siren", ["on", "off"], "driving",
-                       ["ambulance behind", "stop"])
-    assert seen[2][1:3] == ("ambulance: start_location", ["behind"])
+    assert seen[1] == ("property->entity", "ambulance", ["siren: on", "siren: off", "start_location: behind"],
+                       "driving", ["ambulance behind", "stop"])
 
 
 def test_fresh_judge_per_trial():
@@ -172,3 +172,31 @@ def test_fresh_judge_per_trial():
     assert [m.recall for m in rep.groups[0].trials] == [1.0, 0.0]
     with pytest.raises(ConfigError):
         evaluate_edges(EXAMPLES)
+
+
+def test_judge_candidates_decides_as_expansion_does():
+    """One yes/no question per cause candidate, the domain's mechanics rule after it; one
+    consistent property choice per entity (no speed for a stationary actor)."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parents[1] / "support"))
+    from fake_expansion_model import ScriptedModel
+
+    from regen.expand.edges import judge_candidates
+    from regen.llm import LLM
+    from regen.llm.testing import FunctionProvider
+
+    model = ScriptedModel(causes={}, plausible={"the room is empty": False},
+                          choose={"behavior": ["stationary"], "target_speed": ["fast"]})
+    llm = LLM(FunctionProvider(model))
+    got = judge_candidates(llm, "event->event", "the robot opens the door",
+                           ["the pet wants to come in", "the robot is programmed to open doors",
+                            "the room is empty"], domain="manipulation")
+    assert got == {"the pet wants to come in"}  # the mechanical one is judged yes, then ruled out
+    assert model.kinds == ["judge"] * 3
+    got = judge_candidates(llm, "property->entity", "bicycle",
+                           ["behavior: stationary", "behavior: change_lane", "target_speed: fast"],
+                           domain="driving", context=["a cyclist waits at the roadside", "stop"])
+    assert "behavior: stationary" in got and not any(g.startswith("target_speed") for g in got)
+    assert model.kinds[-1] == "properties" and model.kinds.count("properties") == 1

@@ -244,7 +244,8 @@ def test_a_forced_cause_is_accepted_despite_the_judge_and_expanded() -> None:
     assert ghost.status == "rejected" and ghost.history[0].by == "user"
     assert (ghost.history[-1].by, ghost.history[-1].reason) == ("model", "because a ghost opens it")
     assert _node(g, "a dragon knocks").status == "rejected"
-    assert model.kinds.count("judge") == 1  # one judging call for proposals, candidates and forced causes
+    # one judging question per cause: the proposal, the candidate and the forced cause
+    assert model.kinds.count("judge") == 3
 
 
 def test_a_forced_mechanical_cause_is_accepted_with_a_note() -> None:
@@ -306,6 +307,20 @@ def _check_graph(graph: dict, domain: str) -> None:
     assert c["history"][-1]["by"] == "model" and c["history"][-1]["reason"] == "because " + candidate
 
 
+def _check_report(report: str, domain: str) -> None:
+    """The report's table of cause events: the rejected --candidate with the judge's reason, the
+    --cause accepted by the user with the judge's opinion."""
+    import html as html_lib
+
+    _, forced, _, candidate, _ = CLI[domain]
+    rows = {html_lib.unescape(re.sub(r"<[^>]+>", "|", r)).split("|")[2]: html_lib.unescape(re.sub(r"<[^>]+>", " ", r))
+            for r in re.findall(r"<tr><td>.*?</tr>", report, re.S)}
+    cand = " ".join(rows[candidate].split())
+    assert "--candidate rejected model because " + candidate in cand
+    cause = " ".join(rows[forced].split())
+    assert cause.startswith(f"{forced} --cause accepted user given with --cause") and "implausible" in cause
+
+
 @pytest.mark.parametrize("domain", ["driving", "manipulation"])
 def test_expand_cli_takes_cause_and_candidate(domain: str, tmp_path: Path, monkeypatch) -> None:
     text, forced, _, candidate, _ = CLI[domain]
@@ -342,6 +357,7 @@ def test_generate_cli_records_causes_and_resumes_only_with_the_same(tmp_path: Pa
     _check_graph(_graph_page(run / "graph.html"), "driving")
     report = (run / "report.html").read_text()
     assert 'href="graph.html"' in report  # the report's interactive graph, with every reason
+    _check_report(report, "driving")
     # another --cause changes the result: a resume is refused
     res = _generate(*base, "--cause", "a bus blocks the lane")
     assert res.exit_code == 2 and "forced_causes" in res.output and "--fresh" in res.output
@@ -365,4 +381,5 @@ def test_generate_cli_on_the_real_simulator_takes_cause_and_candidate(domain: st
     assert scenario["causal_graph"][0] == forced  # the insisted-on cause became the scenario
     report = (run / "report.html").read_text()
     assert 'href="graph.html"' in report
+    _check_report(report, domain)
     _check_graph(_graph_page(run / "graph.html"), domain)

@@ -66,8 +66,10 @@ def test_expansion_replays_recorded_offline_model_answers(name: str) -> None:
         assert set(accepted) == {"The pet is waiting outside to come in",
                                  "The room is stuffy and needs fresh air"}
         assert all(p.entities for p in paths) and len(paths) == 2
-    if name == "expand_manipulation_lamp":
-        assert paths == []  # the small model gave no acceptable context: recorded as it is
+    if name in ("expand_manipulation_faucet", "expand_manipulation_lamp"):
+        # the small model's proposals for these are weak (recorded as they are): one cause each
+        # survives the judge and the mechanics rule, none of them the robot's own doing
+        assert len(accepted) == 1 and len(paths) == 1
     if name in ("expand_driving", "expand_manipulation"):
         assert paths, "at least one simulatable cause chain"
         for p in paths:

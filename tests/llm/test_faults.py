@@ -33,7 +33,6 @@ from regen.errors import (
     ProviderUnreachableError,
     RegenError,
 )
-from regen.expand.answers import EdgeJudgement
 from regen.llm import LLM
 from regen.llm.base import Provider
 from regen.llm.providers.anthropic import AnthropicProvider
@@ -43,6 +42,18 @@ from regen.llm.sanitize import MAX_TEXT_CHARS
 KINDS = ["openai", "anthropic"]
 GOOD = '{"causes": ["debris on the road"]}'
 TIMEOUT = 0.4  # [s] client timeout in these tests; a hang lasts longer
+
+
+class _Decision(Answer):
+    candidate: str
+    plausible: bool
+    reason: str = ""
+
+
+class EdgeJudgement(Answer):
+    """A nested answer (a list of objects with free text), as model answers often are."""
+
+    decisions: list[_Decision] = []
 
 
 class Causes(Answer):

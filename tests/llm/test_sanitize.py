@@ -10,7 +10,6 @@ import pytest
 
 from regen.core.base import Answer
 from regen.errors import MalformedAnswerError
-from regen.expand.answers import EdgeJudgement
 from regen.llm import LLM
 from regen.llm.cache import CallCache
 from regen.llm.json_extract import MAX_DEPTH, extract_json
@@ -19,6 +18,18 @@ from regen.llm.testing import QueuedProvider
 
 SURROGATE_JSON = '{"causes": ["A pedestrian \\ud800 crosses the road"]}'  # as the model wrote it
 CLEAN = ["A pedestrian \ufffd crosses the road"]
+
+
+class _Decision(Answer):
+    candidate: str
+    plausible: bool
+    reason: str = ""
+
+
+class EdgeJudgement(Answer):
+    """A nested answer (a list of objects with free text), as model answers often are."""
+
+    decisions: list[_Decision] = []
 
 
 class Causes(Answer):

@@ -29,12 +29,10 @@ class ScriptedModel:
             src = re.search(r'directly cause "(.*?)"', text).group(1)
             self.kinds.append("propose")
             return json.dumps({"causes": self.causes.get(src, [])})
-        if "Candidate causes:" in text:
-            cands = re.findall(r"^\d+\. (.*)$", text, re.M)
+        if "is a direct reason for the effect" in text:
+            c = re.findall(r'^Candidate: "(.*)"$', text, re.M)[-1]  # the worked examples come first
             self.kinds.append("judge")
-            return json.dumps({"decisions": [
-                {"candidate": c, "plausible": self.plausible.get(c, True), "reason": f"because {c}"}
-                for c in cands]})
+            return json.dumps({"answer": "yes" if self.plausible.get(c, True) else "no", "reason": f"because {c}"})
         if "The simulator can only create these entities" in text:
             ev = re.search(r'Event: "(.*?)"', text).group(1)
             self.kinds.append("entities")
@@ -43,12 +41,9 @@ class ScriptedModel:
             props = re.findall(r'possible values of "(.*?)"', text)
             self.kinds.append("values")
             return json.dumps({p: self.values.get(p, []) for p in props})
-        if "choose the value(s)" in text:
-            props = re.findall(r"^- (\w+) \(", text, re.M)
+        if "choose, for each property, the one value" in text:
             self.kinds.append("properties")
-            out = {p: self.choose.get(p, []) for p in props}
-            out["reason"] = "fits"
-            return json.dumps(out)
+            return json.dumps({"role": "fits", "choice": self._choice(text)})
         if self.then:
             self.kinds.append("other")
             answer = self.then.pop(0)
@@ -57,3 +52,24 @@ class ScriptedModel:
             self.kinds.append("other")
             return self.otherwise
         raise AssertionError("unexpected prompt: " + text[:200])
+
+    def _choice(self, text: str) -> dict[str, str]:
+        """One value per property: the scripted one (first of ``choose``) if offered, else the
+        first offered; consistent with the prompt's rules for the key property's value."""
+        offered = {p: [v.strip() for v in vals.split(" | ")]
+                   for p, vals in re.findall(r"^- (\w+) \(.*?\): (.*)$", text, re.M)}
+        rules = {(k, v): rule for k, v, rule in re.findall(r"^- (\w+) = (\S+): (.*)$", text, re.M)}
+        out: dict[str, str] = {}
+        key = next((k for k, _ in rules), None)
+        order = sorted(offered, key=lambda p: p != key)
+        for p in order:
+            allowed = offered[p]
+            if key is not None and p != key and (key, out.get(key)) in rules:
+                rule = rules[(key, out[key])]
+                if re.search(rf"\bno {p}\b", rule):
+                    continue
+                if m := re.search(rf"\b{p} one of ([^;]*)", rule):
+                    allowed = [v.strip() for v in m.group(1).split(" | ")]
+            wanted = [v for v in self.choose.get(p, []) if v in allowed]
+            out[p] = wanted[0] if wanted else allowed[0]
+        return out

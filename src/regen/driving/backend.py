@@ -118,6 +118,14 @@ class DrivingBackend(DomainBackend):
         cause_rule=("Each cause must involve other road users, objects, traffic lights or the ego's "
                     "sensors/driver, not the ego-vehicle's own mechanics."),
         value_hint='relative to the ego-vehicle (lane and side), e.g. "behind the ego-vehicle in the same lane"',
+        judge_examples=(
+            ("the ego-vehicle swerved to the left", "a parked truck blocked its lane", "yes",
+             "it must steer around the truck to pass"),
+            ("the ego-vehicle swerved to the left", "a car honked on a street far away", "no",
+             "a sound far away gives no reason to swerve"),
+            ("the ego-vehicle accelerated", "a child ran onto the road ahead", "no",
+             "a child ahead makes it brake, the opposite of accelerating"),
+        ),
         # causes that restate the ego's orders, programming or mechanics (rejected after the
         # judge); its camera and GNSS are not here: glare and jamming are simulated contexts
         mechanics=(
@@ -157,6 +165,30 @@ class DrivingBackend(DomainBackend):
 
     def settings_key(self, behavior: Behavior) -> dict[str, str | None]:
         return {"ego_template": template_for(behavior.text, behavior.ego_template).id}
+
+    def property_choices(self, asset: str, behavior: Behavior | None = None
+                         ) -> tuple[str | None, dict[str | None, dict[str, list[str]]]] | None:
+        """An actor's start locations and speed classes follow its behavior (motion primitive):
+        only the starts the primitive supports, and no speed for one that does not move."""
+        from regen.driving.primitives import find, is_state_only
+
+        db = self.database()
+        if asset not in db.assets or is_state_only(asset) or not db.assets[asset].behaviors:
+            return None
+        starts = db.property_candidates(asset, "start_location") or []
+        speeds = db.property_candidates(asset, "target_speed") or []
+        out: dict[str | None, dict[str, list[str]]] = {}
+        for b in db.assets[asset].behaviors:
+            spec = find(b)
+            if spec is None:
+                continue
+            allowed: dict[str, list[str]] = {}
+            if starts:
+                allowed["start_location"] = [x for x in spec.starts if x in starts] or list(starts)
+            if speeds and spec.moves:
+                allowed["target_speed"] = list(speeds)
+            out[b] = allowed
+        return ("behavior", out) if out else None
 
     def ground(self, path: CausePath, llm: LLM | None, *, seed: int = 0) -> Scenario:
         """Model grounding when an LLM is given (rules replace what its answers leave unusable,

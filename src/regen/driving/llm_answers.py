@@ -20,6 +20,8 @@ it back to the model as a re-ask.
 
 from __future__ import annotations
 
+import itertools
+import math
 import re
 from dataclasses import dataclass
 from typing import Annotated, Any, Literal
@@ -31,7 +33,7 @@ from regen.core.base import Answer
 from regen.core.scenario import FSM, AbstractState, PredicateCall, Stage, StateRef
 from regen.driving.actors import RoleChoice
 from regen.driving.ego import EgoTemplate
-from regen.driving.feasibility import available, never_holds
+from regen.driving.feasibility import available, never_holds, top_speed
 from regen.driving.ground import choose_map
 from regen.driving.primitives import get, is_state_only
 from regen.driving.primitives.base import SPEED_CLASSES
@@ -177,23 +179,72 @@ def chosen_roles(answer: Any, options: list[RoleOptions], defaults: list[RoleCho
 # --- FSM --------------------------------------------------------------------------------------
 
 
-def call_pattern(specs: list[PredicateSpec], actors: list[str]) -> str:
+NUMBER = "([0-9]|[1-9][0-9]|1[0-9][0-9])([.][0-9]+)?"  # 0 to 199.9..: the range parse_call accepts
+
+
+def below(limit: float) -> str:
+    """A regex of numbers below ``limit`` (>= 1): integer parts 0 .. floor(limit) - 1, so no
+    value at or above the limit can be written (conservative for a fractional limit)."""
+    n = min(200, max(1, math.floor(limit)))  # integer parts allowed: 0 .. n-1
+    if n <= 10:
+        return f"[0-{n - 1}]([.][0-9]+)?"
+    tens, units = divmod(n, 10)
+    alts = ["[0-9]"]
+    if tens > 1:
+        alts.append(f"[1-{tens - 1}][0-9]" if tens <= 10 else "[1-9][0-9]")
+    if tens >= 10:
+        hundreds_tens = tens - 10
+        if hundreds_tens > 0:
+            alts.append(f"1[0-{hundreds_tens - 1}][0-9]")
+        if units:
+            alts.append(f"1{hundreds_tens}[0-{units - 1}]")
+    elif units:
+        alts.append(f"{tens}[0-{units - 1}]")
+    return "(" + "|".join(alts) + ")([.][0-9]+)?"
+
+
+def call_pattern(specs: list[PredicateSpec], actors: list[str],
+                 roles: dict[str, RoleChoice] | None = None, template: EgoTemplate | None = None) -> str:
     """The regex of a predicate call over exact predicate, actor and parameter names (for the
-    schema): constrained decoding can then write no unknown name at all."""
-    who = "(" + "|".join(re.escape(a) for a in actors) + ")"
-    num = "[0-9]+([.][0-9]+)?"  # no backslash escapes: they do not survive the grammar
+    schema): constrained decoding can then write no unknown name at all. With the scenario's
+    ``roles`` and ``template``, only calls that can hold: actor combinations that
+    :func:`~regen.driving.feasibility.never_holds` rules out, an actor compared with itself and
+    speed thresholds at or above what the actor can reach cannot be written either, so no answer
+    is thrown away for them."""
+    num = NUMBER  # no backslash escapes: they do not survive the grammar
     alts = []
     for s in specs:
-        args = ", ".join([who] * s.arity)
-        params = []
-        for k, default in s.params.items():
-            if s.name == "light_is" and k == "value":
-                params.append(f"{k}=({'|'.join(LIGHT_VALUES)})")
-            elif not isinstance(default, str):
-                params.append(f"{k}={num}")
-        extra = f"(, ({'|'.join(params)}))?" if params else ""
-        alts.append(rf"{s.name}\({args}{extra}\)")
+        per: list[tuple[str, str | None]] = []  # (args regex, first actor if fixed)
+        if roles is None or template is None:
+            who = "(" + "|".join(re.escape(a) for a in actors) + ")"
+            per.append((", ".join([who] * s.arity), None))
+        else:
+            for c in itertools.product(actors, repeat=s.arity):
+                call = PredicateCall(name=s.name, args=list(c))
+                if len(set(c)) < s.arity or (s.name != "light_is" and never_holds(call, roles, template)):
+                    continue
+                per.append((", ".join(re.escape(a) for a in c), c[0]))
+        for args, first in per:
+            params = []
+            for k, default in s.params.items():
+                if s.name == "light_is" and k == "value":
+                    params.append(f"{k}=({'|'.join(LIGHT_VALUES)})")
+                elif not isinstance(default, str):
+                    top = _top(first, roles, template) if k == "min_speed" else None
+                    params.append(f"{k}={below(top) if top is not None else num}")
+            extra = f"(, ({'|'.join(params)}))?" if params else ""
+            alts.append(rf"{s.name}\({args}{extra}\)")
     return "^(not )?(" + "|".join(alts) + ")$"
+
+
+def _top(actor: str | None, roles: dict[str, RoleChoice] | None, template: EgoTemplate | None) -> float | None:
+    """The highest speed [m/s] ``actor`` reaches in the scenario (None: unknown or no motion)."""
+    if actor is None or roles is None or template is None:
+        return None
+    if actor == "ego":
+        return max([template.speed0] + [v for _, v, _ in template.schedule])
+    r = roles.get(actor)
+    return top_speed(r) if r is not None else None
 
 
 def parse_call(text: str, specs: dict[str, PredicateSpec], actors: list[str]) -> PredicateCall:
@@ -248,7 +299,7 @@ def fsm_schema(roles: list[RoleChoice], template: EgoTemplate) -> type[Answer]:
     actors = ["ego"] + [r.name for r in roles]
     by_name = {r.name: r for r in roles}
     specs = {s.name: s for s in available(roles, template)}
-    pattern = call_pattern(list(specs.values()), actors)
+    pattern = call_pattern(list(specs.values()), actors, by_name, template)
     Actor = _lit(tuple(actors))
     CallText = Annotated[str, Field(json_schema_extra={"pattern": pattern})]
 

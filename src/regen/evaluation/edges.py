@@ -220,12 +220,12 @@ def context_chain(context: str | None, source: str) -> list[str]:
 
 
 def model_judge(llm) -> Judge:
-    """The project's own edge construction (``regen.expand.edges:judge_candidates``) as a Judge.
+    """The project's own edge construction (``regen.expand.edges:judge_candidates``) as a Judge:
+    the same calls expansion makes (one yes/no question per candidate cause, one entity
+    selection per event, one property choice per entity), plus the rules it applies after them.
 
     Imported here rather than at module import, so the rest of evaluation works without the
-    expansion package; a missing one is reported before any trial runs. Property candidates
-    ``"property: value"`` are judged one property at a time (source ``"entity: property"``,
-    candidates the values) and mapped back.
+    expansion package; a missing one is reported before any trial runs.
     """
     try:
         from regen.expand.edges import judge_candidates
@@ -236,19 +236,6 @@ def model_judge(llm) -> Judge:
     def judge(kind: str, source: str, candidates: list[str], *, context: str | None = None,
               domain: str) -> set[str]:
         chain = context_chain(context, source)
-        if kind != "property->entity":
-            return set(judge_candidates(llm, kind, source, candidates, domain=domain,
-                                        context=chain or None))
-        by_prop: dict[str, dict[str, str]] = {}  # property -> value -> original candidate
-        for c in candidates:
-            prop, sep, value = c.partition(":")
-            prop, value = (prop.strip(), value.strip()) if sep else ("value", c.strip())
-            by_prop.setdefault(prop, {})[value] = c
-        accepted: set[str] = set()
-        for prop, values in by_prop.items():
-            got = judge_candidates(llm, kind, f"{source}: {prop}", list(values), domain=domain,
-                                   context=chain or None)
-            accepted |= {values[v] for v in got if v in values}
-        return accepted
+        return set(judge_candidates(llm, kind, source, candidates, domain=domain, context=chain or None))
 
     return judge

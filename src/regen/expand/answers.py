@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
 from pydantic import Field, field_validator
 
 from regen.core.base import Answer
@@ -21,14 +23,13 @@ class EventProposal(Answer):
         return [c for c in out if c and len(c) <= 200]
 
 
-class EdgeDecision(Answer):
-    candidate: str
-    plausible: bool
-    reason: str = ""
+class EdgeVerdict(Answer):
+    """One candidate cause judged: the answer, then its reason (a small model decides better at
+    once than after arguing). Both required: constrained decoding writes required fields in this
+    order, optional ones last."""
 
-
-class EdgeJudgement(Answer):
-    decisions: list[EdgeDecision] = Field(default_factory=list)
+    answer: Literal["yes", "no"]
+    reason: str
 
 
 class EntityChoice(Answer):
@@ -38,22 +39,3 @@ class EntityChoice(Answer):
 
 class EntitySelection(Answer):
     entities: list[EntityChoice] = Field(default_factory=list)
-
-
-class ValueProposal(Answer):
-    values: list[str] = Field(default_factory=list)
-
-    @field_validator("values")
-    @classmethod
-    def _tidy(cls, v: list[str]) -> list[str]:
-        return [c for c in (_clean(x) for x in v) if c and len(c) <= 120]
-
-
-class PropertyChoice(Answer):
-    property: str
-    values: list[str] = Field(default_factory=list)
-    reason: str = ""
-
-
-class PropertySelection(Answer):
-    choices: list[PropertyChoice] = Field(default_factory=list)

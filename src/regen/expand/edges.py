@@ -10,14 +10,15 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 from functools import lru_cache
-from typing import Any
+from typing import Any, Literal, Union
 
 from pydantic import Field, create_model
 
 from regen.assets.database import MATCH_THRESHOLD, AssetDatabase, name_words
 from regen.core.base import Answer
+from regen.core.behavior import Behavior
 from regen.errors import ConfigError
-from regen.expand.answers import EdgeJudgement, EntitySelection, EventProposal
+from regen.expand.answers import EdgeVerdict, EntitySelection, EventProposal
 from regen.expand.dedupe import normalize, similar
 from regen.llm.client import LLM
 from regen.prompting import render
@@ -36,6 +37,11 @@ class Judged:
     # accepted candidate -> (who matched the model's name to it: 'database' for an alias, 'rule'
     # for a similarity guess, and how)
     matched: dict[str, tuple[str, str]] = field(default_factory=dict)
+    calls: dict[str, str] = field(default_factory=dict)  # candidate -> the call that judged it alone
+
+    def call_for(self, candidate: str) -> str:
+        """The id of the call that decided ``candidate``."""
+        return self.calls.get(candidate, self.call_id)
 
 
 def _wording(domain: str):
@@ -106,21 +112,26 @@ def propose_events(llm: LLM, domain: str, chain: list[str], *, prior: str | None
 
 
 def judge_events(llm: LLM, domain: str, chain: list[str], candidates: list[str]) -> Judged:
-    """Which candidates plausibly and directly cause ``chain[0]`` (one call for all)."""
-    prompt = _render("event_edges", domain, chain=chain, source=chain[0],
-                    candidates=candidates)
-    got = llm.ask(prompt, EdgeJudgement, purpose="event_edges", system=system_prompt(domain))
-    out = Judged(call_id=got.call_id)
-    for d in got.value.decisions:
-        target = _match(d.candidate, candidates)
-        if target is None:
-            out.unknown[d.candidate] = d.reason
-        elif target not in out.accepted and target not in out.rejected:
-            (out.accepted if d.plausible else out.rejected)[target] = d.reason or (
-                "plausible direct cause" if d.plausible else "judged implausible")
-    for c in candidates:
-        if c not in out.accepted and c not in out.rejected:
-            out.rejected[c] = "the model gave no decision for it"
+    """Which candidates plausibly and directly cause ``chain[0]``: one yes/no call per candidate.
+
+    Each call restates the effect as a question about that one candidate, with the domain's
+    worked example (``Wording.judge_example``), and asks for the reason before the answer; a
+    small model judges one short question far better than a list of them at once.
+    """
+    def ask(candidate: str):
+        prompt = _render("event_edge", domain, chain=chain, source=chain[0], candidate=candidate,
+                         robot=robot_word(domain))
+        return llm.ask(prompt, EdgeVerdict, purpose="event_edges", system=system_prompt(domain))
+
+    answers = llm.map(ask, candidates)
+    out = Judged(call_id=answers[0].call_id if answers else "")
+    for c, got in zip(candidates, answers, strict=True):
+        out.calls[c] = got.call_id
+        reason = " ".join(got.value.reason.split())
+        if got.value.answer == "yes":
+            out.accepted[c] = reason or "plausible direct cause"
+        else:
+            out.rejected[c] = reason or "judged implausible"
     return out
 
 
@@ -181,30 +192,105 @@ def propose_values(llm: LLM, domain: str, chain: list[str], event: str, entity: 
     return values, got.call_id
 
 
+def property_options(db: AssetDatabase, asset: str, proposed: dict[str, list[str]]
+                     ) -> dict[str, tuple[str, list[str]]]:
+    """What the property judge chooses from for ``asset``: each property's description and
+    values (the database's states, or for free properties such as locations the ``proposed``
+    values); properties without values are left out."""
+    options: dict[str, tuple[str, list[str]]] = {}
+    for p in db.parameters_of(asset):
+        values = db.property_candidates(asset, p)
+        values = proposed.get(p, []) if values is None else values
+        if values:
+            options[p] = (db.properties[p].description, list(values))
+    return options
+
+
+def property_choices(domain: str, asset: str, behavior: Behavior | None = None) -> Choices | None:
+    """What the domain's simulator restricts of ``asset``'s properties when explaining
+    ``behavior`` (``DomainBackend.property_choices``)."""
+    from regen import domains
+
+    return domains.make(domain).property_choices(asset, behavior)
+
+
+Choices = tuple[str | None, dict[str | None, dict[str, list[str]]]]  # DomainBackend.property_choices
+
+
+def _choice_models(options: dict[str, tuple[str, list[str]]], choices: Choices | None) -> list[Any]:
+    """One pydantic model per consistent combination family: the key property fixed to one value,
+    the properties that depend on it restricted to (or, when absent, without) their allowed
+    values; independent properties free. Without dependencies, one model."""
+    def model(name: str, fixed: dict[str, list[str]]) -> Any:
+        fields = {p: (Literal[tuple(v)], ...) for p, v in fixed.items()}
+        return create_model(name, __base__=Answer, **fields)
+
+    free = {p: list(v) for p, (_, v) in options.items()}
+    if choices is not None and choices[0] is None:  # restrictions whatever the other values
+        fixed = {p: [v for v in vals if v in choices[1][None].get(p, vals)] or vals
+                 for p, vals in free.items()}
+        return [model("Values", fixed)]
+    if choices is None or choices[0] not in options:
+        return [model("Values", free)]
+    key, per = choices
+    dependent = {p for allowed in per.values() for p in allowed}
+    out = []
+    for value in options[key][1]:
+        allowed = per.get(value)
+        fixed: dict[str, list[str]] = {key: [value]}
+        for p, vals in free.items():
+            if p == key:
+                continue
+            if p not in dependent or allowed is None:
+                fixed[p] = vals
+            elif p in allowed:
+                fixed[p] = [v for v in vals if v in allowed[p]] or vals
+        out.append(model(f"Values{len(out)}", fixed))
+    return out
+
+
 def select_properties(llm: LLM, domain: str, chain: list[str], event: str, entity: str,
-                      options: dict[str, tuple[str, list[str]]]) -> tuple[dict[str, Judged], str]:
-    """For each property (name -> (description, candidate values)) the supporting values."""
-    fields: dict[str, Any] = {p: (list[str], Field(default_factory=list)) for p in options}
-    fields["reason"] = (str, "")
-    schema = create_model("PropertyValues", __base__=Answer, **fields)
+                      options: dict[str, tuple[str, list[str]]],
+                      choices: Choices | None = None) -> tuple[dict[str, Judged], str]:
+    """For each property (name -> (description, candidate values)) the one value that supports
+    the entity's role: the graph's binding choice, so exactly one per property that applies.
+
+    The schema asks for the role sentence first and allows only offered values; with
+    ``choices`` (the domain's dependent properties) only consistent combinations, so the model
+    states what the entity does, then picks values that agree with each other. A property that
+    does not apply to the chosen key value (a stationary actor's speed) gets no value.
+    """
+    variants = _choice_models(options, choices)
+    choice_type = variants[0] if len(variants) == 1 else Union[tuple(variants)]  # noqa: UP007
+    schema = create_model("PropertyValues", __base__=Answer, role=(str, ...), choice=(choice_type, ...))
+    rules = []
+    if choices is not None and choices[0] is not None and len(variants) > 1:
+        key, per = choices
+        for value, allowed in per.items():
+            if value in options[key][1]:
+                parts = [f"{p} one of {' | '.join(v)}" for p, v in allowed.items()]
+                dropped = [p for p in {q for a in per.values() for q in a} if p not in allowed and p in options]
+                parts += [f"no {p}" for p in sorted(dropped)]
+                rules.append((value, "; ".join(parts) or "nothing else"))
     prompt = _render("property_edges", domain, chain=chain, event=event, entity=entity,
-                    properties=[(p, d, v) for p, (d, v) in options.items()])
-    example = "{" + ", ".join(f'"{p}": ["<value>"]' for p in options) + ', "reason": "..."}'
-    prompt = prompt.rsplit("\n\nAnswer as JSON", 1)[0] + f"\n\nAnswer as JSON: {example}"
+                     properties=[(p, d, v) for p, (d, v) in options.items()],
+                     key=choices[0] if rules else None, rules=rules, robot=robot_word(domain))
+    example = ", ".join(f'"{p}": "<one value>"' for p in options)
+    prompt += ': {"role": "<what it does>", "choice": {' + example + "}}"
     got = llm.ask(prompt, schema, purpose="property_edges", system=system_prompt(domain))
-    reason = got.value.reason or "supports the entity's role"
+    role = " ".join(got.value.role.split())
+    picked = got.value.choice.model_dump()
     out: dict[str, Judged] = {}
     for p, (_, values) in options.items():
         j = Judged(call_id=got.call_id)
-        for v in getattr(got.value, p):
-            target = _match(v, values)
-            if target is None:
-                j.unknown[v] = f"not a value of {p} in the asset database or the proposed values"
-            else:
-                j.accepted.setdefault(target, reason)
+        chosen = picked.get(p)
+        if chosen is not None:
+            j.accepted[chosen] = f"{role} ({p} = {chosen})" if role else "supports the entity's role"
         for v in values:
-            if v not in j.accepted:
-                j.rejected[v] = "not chosen by the model"
+            if v != chosen:
+                j.rejected[v] = (f"not chosen by the model (it chose {chosen})" if chosen is not None
+                                 else f"does not apply: {choices[0] if choices else 'the choice'} = "
+                                      f"{picked.get(choices[0]) if choices else '?'}")
         out[p] = j
     return out, got.call_id
 
@@ -215,20 +301,38 @@ def judge_candidates(llm: LLM, kind: str, source: str, candidates: list[str], *,
     """Edge construction for evaluation: the accepted subset of ``candidates`` for ``source``.
 
     ``kind`` is 'event->event', 'entity->event' or 'property->entity' (for the latter, ``source``
-    is 'entity: property' and ``context`` the event chain).
+    is the entity's asset id, ``candidates`` are 'property: value' and ``context`` the event
+    chain, event first).
     """
     chain = [source, *(context or [])]
-    if kind == "event->event":
-        return set(judge_events(llm, domain, chain, candidates).accepted)
+    if kind == "event->event":  # as expansion decides: the judge, then the domain's mechanics rule
+        return {c for c in judge_events(llm, domain, chain, candidates).accepted
+                if restates_mechanics(domain, c) is None}
     if kind == "entity->event":
         from regen import domains
 
         db = database or domains.make(domain).database()
         return {a for a in select_entities(llm, db, domain, chain).accepted if a in candidates}
     if kind == "property->entity":
-        entity, _, prop = source.partition(":")
-        prop = prop.strip() or "value"
-        judged, _ = select_properties(llm, domain, context or [entity], (context or [entity])[0],
-                                      entity.strip(), {prop: (prop, candidates)})
-        return set(judged[prop].accepted)
+        # as expansion asks (one call per entity, one consistent value per property), over the
+        # labeled candidates ("property: value"): the properties they name, with those values
+        from regen import domains
+
+        db = database or domains.make(domain).database()
+        entity = source.strip()
+        if entity not in db.assets:
+            raise ConfigError(f"{entity!r} is not an asset of the {domain} database")
+        asked: dict[str, list[str]] = {}
+        for c in candidates:
+            prop, sep, value = c.partition(":")
+            if not sep or prop.strip() not in db.properties:
+                raise ConfigError(f"property candidate {c!r}: write 'property: value' with a property "
+                                  f"of the {domain} database")
+            asked.setdefault(prop.strip(), []).append(value.strip())
+        options = {p: (db.properties[p].description, v) for p, v in asked.items()}
+        event = (context or [entity])[0]
+        behavior = Behavior(text=context[-1], domain=domain) if context else None
+        judged, _ = select_properties(llm, domain, context or [entity], event, entity, options,
+                                      property_choices(domain, entity, behavior))
+        return {f"{p}: {v}" for p, j in judged.items() for v in j.accepted}
     raise ValueError(f"unknown edge kind {kind!r}; use event->event, entity->event or property->entity")

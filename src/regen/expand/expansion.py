@@ -126,22 +126,22 @@ class Expander:
             opinion = judged.accepted[cand] if plausible else judged.rejected.get(cand, "not chosen")
             if cand in insisted:
                 if self._accept(graph, node, nid, self._insisted(graph, cand, plausible, opinion,
-                                                                 judged.call_id)):
+                                                                 judged.call_for(cand))):
                     new_ids.append(node.id)
             elif plausible and (words := edges.restates_mechanics(graph.behavior.domain, cand)):
                 # the judge accepted it, but it is the robot's own doing, not a context
-                said = Decision(action="accepted", by="model", call_id=judged.call_id, reason=opinion)
+                said = Decision(action="accepted", by="model", call_id=judged.call_for(cand), reason=opinion)
                 self._reject(graph, node, nid, said)
                 self._reject(graph, node, nid, Decision(action="rejected", by="rule", reason=(
                     f"restates the {edges.robot_word(graph.behavior.domain)}'s own command, "
                     f"programming or mechanics ('{words}'), not a context in which it acts")))
             elif plausible:
                 if self._accept(graph, node, nid, Decision(action="accepted", by="model",
-                                                           call_id=judged.call_id, reason=opinion)):
+                                                           call_id=judged.call_for(cand), reason=opinion)):
                     new_ids.append(node.id)
             else:
                 self._reject(graph, node, nid, Decision(action="rejected", by="model",
-                                                        call_id=judged.call_id, reason=opinion))
+                                                        call_id=judged.call_for(cand), reason=opinion))
         return new_ids
 
     @staticmethod
@@ -270,14 +270,11 @@ class Expander:
         if free:
             proposed, pid = edges.propose_values(self.llm, graph.behavior.domain, chain, ev.label,
                                                  asset, free, max_values=self.limits.max_values)
-        options: dict[str, tuple[str, list[str]]] = {}
-        for p in params:
-            values = self.db.property_candidates(asset, p)
-            values = proposed.get(p, []) if values is None else values
-            if values:
-                options[p] = (self.db.properties[p].description, values)
+        options = edges.property_options(self.db, asset, proposed)
         judged, sid = (edges.select_properties(self.llm, graph.behavior.domain, chain, ev.label, asset,
-                                               options) if options else ({}, None))
+                                               options, edges.property_choices(graph.behavior.domain, asset,
+                                                                               graph.behavior))
+                       if options else ({}, None))
         return ent.id, proposed, pid, judged
 
     def attach_properties(self, graph: ScenarioGraph) -> None:

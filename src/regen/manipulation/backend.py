@@ -31,6 +31,14 @@ class ManipulationBackend(DomainBackend):
                     "or \"the room is stuffy and needs fresh air\". Never the robot's own command, "
                     "instruction, programming, sensors or mechanics."),
         value_hint='relative to the robot, the table or furniture, e.g. "on the table left of the robot"',
+        judge_examples=(
+            ("the robot puts the cup in the sink", "the cup is dirty after breakfast", "yes",
+             "a dirty cup belongs in the sink to be washed"),
+            ("the robot puts the cup in the sink", "the tv is showing the news", "no",
+             "the news has nothing to do with the cup"),
+            ("the robot puts the cup in the sink", "the robot was told to tidy up", "no",
+             "an order to the robot is not a situation in the home"),
+        ),
         # causes that restate the robot's orders, programming, sensors or mechanics (rejected after
         # the judge); "the robot" is this robot, not "a robot vacuum" in the room
         mechanics=(
@@ -64,6 +72,27 @@ class ManipulationBackend(DomainBackend):
             raise ConfigError("--ego is for driving behaviors; manipulation behaviors take --reward "
                               f"(one of: {', '.join(sorted(BEHAVIORS))})")
         resolve(behavior.reward, behavior.text)
+
+    def property_choices(self, asset: str, behavior: Behavior | None = None
+                         ) -> tuple[str | None, dict[str | None, dict[str, list[str]]]] | None:
+        """The object the task acts on starts as the task needs it: a lamp to switch on is off,
+        a door to open is closed (its start fraction); the model does not choose that."""
+        if behavior is None:
+            return None
+        try:
+            task = resolve(behavior.reward, behavior.text)
+        except ConfigError:
+            return None
+        if task.asset != asset:
+            return None
+        db = self.database()
+        fixed: dict[str, list[str]] = {}
+        if "articulation" in db.parameters_of(asset):
+            f = task.start_fraction
+            fixed["articulation"] = ["closed" if f < 0.1 else "open" if f > 0.9 else "half_open"]
+        if "power" in db.parameters_of(asset):
+            fixed["power"] = ["on" if task.start_fraction > 0.5 else "off"]
+        return (None, {None: fixed}) if fixed else None
 
     def settings_key(self, behavior: Behavior) -> dict[str, str | None]:
         return {"reward": resolve(behavior.reward, behavior.text).id}

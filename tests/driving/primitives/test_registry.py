@@ -121,7 +121,7 @@ def test_every_start_can_be_placed_and_planned(name):
         plan = spec.plan(placed)
         assert plan.name == role.name and plan.asset == role.asset
         assert plan.dynamic == (spec.moves and bool(spec.scenic_behavior))
-        assert plan.scenic_behavior == spec.scenic_behavior
+        assert plan.scenic_behavior == spec.scenic_behavior_of(plan.cls)
     assert placed_starts == tried >= set(spec.starts)
 
 

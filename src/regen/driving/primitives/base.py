@@ -10,7 +10,8 @@ collects one spec per module of this package.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from types import MappingProxyType
 
 from regen.core.scenario import PredicateCall
 from regen.driving.actors import PEDESTRIAN_ASSETS, ActorSpec, RoleChoice, scenic_class
@@ -94,6 +95,15 @@ Constrain = Callable[[PlacementModel, ActorSpec, tuple[float, float]], None]
 
 
 @dataclass(frozen=True, kw_only=True)
+class ClassMotion:
+    """How an actor of one Scenic class moves by a primitive made for another class (a cyclist,
+    a Scenic ``Car``, crossing the road as pedestrians do): its speeds and Scenic behavior."""
+
+    speeds: SpeedClasses  # its speed classes [m/s]
+    scenic_behavior: str  # the behavior of program.scenic.j2 that follows its route
+
+
+@dataclass(frozen=True, kw_only=True)
 class Primitive:
     """One motion primitive (or, with ``only_for``, the state switching of lights and sensors)."""
 
@@ -114,15 +124,27 @@ class Primitive:
     # ('' : it stands), and whether OpenSCENARIO replays its recorded path as a trajectory
     scenic_behavior: str = ""
     xosc_trajectory: bool = False
+    # actors of other Scenic classes than its usual users, by class ('Car'): how they move by it
+    # (WalkRoute takes pedestrian-only actions, so a Car follows the route with FollowRoute)
+    by_class: Mapping[str, ClassMotion] = field(default_factory=lambda: MappingProxyType({}),
+                                                hash=False, compare=False)
     add_constraints: Constrain  # its CP-SAT constraints (model, actor, speed range [m/s])
     build_plan: Callable[[Placed], ActorPlan]  # its executable plan from the solved parameters
     rule_states: Callable[[RoleChoice, EgoTemplate], RuleStates]  # its states in the rule FSM
 
-    def speed_classes(self, asset: str) -> SpeedClasses:
-        """The speed classes of ``asset`` moving by this primitive."""
+    def speed_classes(self, asset: str, kind: str = "agent") -> SpeedClasses:
+        """The speed classes of ``asset`` (of database ``kind``) moving by this primitive."""
+        other = self.by_class.get(scenic_class(asset, kind))
+        if other is not None:
+            return other.speeds
         if self.speeds is not None:
             return self.speeds
         return WALK_SPEEDS if asset in PEDESTRIAN_ASSETS else VEHICLE_SPEEDS
+
+    def scenic_behavior_of(self, cls: str) -> str:
+        """The Scenic behavior that drives an actor of Scenic class ``cls`` by this primitive."""
+        other = self.by_class.get(cls)
+        return other.scenic_behavior if other is not None else self.scenic_behavior
 
     def speed_range(self, a: RoleChoice) -> tuple[float, float]:
         """(low, high) [m/s] the solver may give the actor."""
@@ -135,7 +157,7 @@ class Primitive:
     def plan(self, placed: Placed) -> ActorPlan:
         """The actor's executable plan, with the Scenic behavior that drives it."""
         plan = self.build_plan(placed)
-        plan.scenic_behavior = self.scenic_behavior
+        plan.scenic_behavior = self.scenic_behavior_of(plan.cls)
         return plan
 
     def never_holds(self, predicate: str, r: RoleChoice) -> str | None:
@@ -176,5 +198,5 @@ class PedestrianPrimitive(Primitive):
 
 
 __all__ = ["LANE_CHANGE_LENGTH", "MOTION_PREDICATES", "SPEED_CLASSES", "VEHICLE_SPEEDS", "WALK_SPEEDS",
-           "PedestrianPrimitive", "Placed", "Primitive", "RuleStates", "SpeedClasses", "State",
+           "ClassMotion", "PedestrianPrimitive", "Placed", "Primitive", "RuleStates", "SpeedClasses", "State",
            "VehiclePrimitive", "pred"]

@@ -1,4 +1,10 @@
-"""cross_the_road: a pedestrian waits at the road side, then crosses in front of the ego."""
+"""cross_the_road: a pedestrian (or a cyclist) waits at the road side, then crosses in front of
+the ego.
+
+Pedestrians walk the crossing (WalkRoute, walking speeds). A cyclist is a Scenic ``Car``: it
+rides the same route across the road with FollowRoute at the speeds of a rider crossing
+(:data:`RIDE_CROSS_SPEEDS`); which vehicles may cross is the asset database's ``behaviors``.
+"""
 
 from __future__ import annotations
 
@@ -10,8 +16,21 @@ from regen.driving.cpsat import DM, PlacementModel
 from regen.driving.ego import EGO_SIZE, EgoTemplate
 from regen.driving.locations import LOCATIONS
 from regen.driving.plan import ActorPlan
-from regen.driving.primitives.base import PedestrianPrimitive, Placed, RuleStates, pred
+from regen.driving.primitives.base import (
+    ClassMotion,
+    PedestrianPrimitive,
+    Placed,
+    RuleStates,
+    SpeedClasses,
+    pred,
+)
 from regen.driving.triggers import approach
+
+# A cyclist riding across the road from a standstill at the kerb: slow 1.5-2.5 m/s (5-9 km/h),
+# moderate 2.5-4 m/s (9-14 km/h), fast 4-6 m/s (14-22 km/h). Slower than riding along the road:
+# it sets off across traffic; a rider much faster than 4 m/s is through an ego's lane (3.5 m
+# plus its own 1.8 m) in about a second, before an ego that reacted to it would get there.
+RIDE_CROSS_SPEEDS = SpeedClasses(slow=(1.5, 2.5), moderate=(2.5, 4.0), fast=(4.0, 6.0))
 
 
 def _walk_window(m: PlacementModel, a: ActorSpec, t: Any, v: Any, dist: float,
@@ -35,7 +54,9 @@ def _constrain(m: PlacementModel, a: ActorSpec, speeds: tuple[float, float]) -> 
     t = m.trigger(a)
     gap = abs(fr.sidewalk_d(LOCATIONS[a.location].side) - fr.lane_d(e.ego_lane))
     reach = gap - fr.lane_width / 2  # walk [m] to the ego lane's near edge
-    clear = gap + fr.lane_width / 2 + a.size[1] / 2  # to its far edge [m]
+    # to its far edge [m], its back included: size[0] is its length along its heading, across
+    # the road (a bicycle is 1.8 m long; pedestrians are as long as wide)
+    clear = gap + fr.lane_width / 2 + a.size[0] / 2
     if e.speed_event == 0.0 and not e.stops:  # the ego waits: pedestrians clear its lane first
         lo_s, hi_s = e.s_event + EGO_SIZE[0] / 2 + 1.5, e.s_event + EGO_SIZE[0] / 2 + 8.0
         _walk_window(m, a, t, v, clear, (0.3, "has crossed the ego's lane by 0.3 s before the ego starts"),
@@ -76,5 +97,9 @@ def _rule_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:
 
 
 SPEC = PedestrianPrimitive(name="cross_the_road",
+                           # a vehicle crosses if the database lets it (the bicycle)
+                           users=frozenset({"pedestrians", "vehicles"}),
                            starts=("roadside_ahead", "roadside_opposite_ahead", "crosswalk_ahead"),
+                           by_class={"Car": ClassMotion(speeds=RIDE_CROSS_SPEEDS,
+                                                        scenic_behavior="FollowRoute")},
                            add_constraints=_constrain, build_plan=_plan, rule_states=_rule_states)
