@@ -24,9 +24,9 @@ def _state(stage, actor, name, *holds):
     return {"stage": stage, "actor": actor, "name": name, "holds": list(holds)}
 
 
-# the graph fixed the child's behavior and start: the model is asked only what the graph left open
-CHILD_ROLES = {"narrative": "A child runs across the road from the sidewalk, so the ego brakes hard.",
-               "child1_speed": "moderate"}
+# the graph fixed the child's behavior, start and speed: the model is asked only what the graph
+# left open (the narrative)
+CHILD_ROLES = {"narrative": "A child runs across the road from the sidewalk, so the ego brakes hard."}
 # over-strict: the ego must brake at the very step the child is already back on the far sidewalk
 STRICT_FSM = {"states": [
     _state(1, "child1", "waiting", "on_sidewalk(child1)"),
@@ -46,7 +46,8 @@ def _generate(*args: str):
 
 def _child_model(**kw) -> ScriptedModel:
     return ScriptedModel(causes={STOP: [CHILD]}, entities={CHILD: ["child"]},
-                         choose={"behavior": ["cross_the_road"], "start_location": ["roadside_ahead"]}, **kw)
+                         choose={"behavior": ["cross_the_road"], "start_location": ["roadside_ahead"],
+                                 "target_speed": ["moderate"]}, **kw)
 
 
 @pytest.mark.slow
