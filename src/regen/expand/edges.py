@@ -280,17 +280,16 @@ def select_properties(llm: LLM, domain: str, chain: list[str], event: str, entit
     got = llm.ask(prompt, schema, purpose="property_edges", system=system_prompt(domain))
     role = " ".join(got.value.role.split())
     picked = got.value.choice.model_dump()
+    key = choices[0] if choices else None
     out: dict[str, Judged] = {}
     for p, (_, values) in options.items():
         j = Judged(call_id=got.call_id)
         chosen = picked.get(p)
         if chosen is not None:
             j.accepted[chosen] = f"{role} ({p} = {chosen})" if role else "supports the entity's role"
-        for v in values:
-            if v != chosen:
-                j.rejected[v] = (f"not chosen by the model (it chose {chosen})" if chosen is not None
-                                 else f"does not apply: {choices[0] if choices else 'the choice'} = "
-                                      f"{picked.get(choices[0]) if choices else '?'}")
+        why = (f"not chosen by the model (it chose {chosen})" if chosen is not None
+               else f"does not apply with {key} = {picked.get(key)}")
+        j.rejected.update({v: why for v in values if v != chosen})
         out[p] = j
     return out, got.call_id
 
