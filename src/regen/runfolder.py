@@ -17,6 +17,7 @@ import datetime as dt
 import json
 import os
 import shutil
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar, TypeVar
@@ -303,6 +304,15 @@ class RunFolder:
         order = [str(n) for n in names if str(n) in on_disk] if isinstance(names, list) else []
         order = list(dict.fromkeys(order))
         return order + [n for n in on_disk if n not in order]
+
+    def scenarios_of(self, domain: str) -> Iterator[tuple[str, ScenarioFolder, Scenario, Verdict | None]]:
+        """(folder name, folder, scenario, verdict or None while unfinished) of every readable
+        ``domain`` scenario, in run order: what behavior tests and training envs run on."""
+        for name in self.scenario_names():
+            folder = self.scenario(name)
+            scenario = folder.scenario()
+            if scenario is not None and scenario.domain == domain:
+                yield name, folder, scenario, folder.verdict()
 
     # --- manifest ----------------------------------------------------------------------------
 

@@ -86,3 +86,20 @@ IMPOSSIBLE: dict[str, CausePath] = {
         "siren": ["on", "off"], "behavior": ["drive_forward"], "start_location": ["behind_adjacent_lane"]})),
     "unsupported_behavior": chain("stop_abruptly", "debris drives", ("debris", {"behavior": ["drive_forward"]})),
 }
+
+
+def verified_run(tmp_path_factory, scenarios: dict[str, CausePath]):
+    """A run folder whose scenarios (folder name -> chain) all verified through the main job's
+    stages (rule-based grounding, no pictures), in a model cache of its own; yields its path."""
+    import pytest
+
+    from regen.pipeline import run_path
+    from regen.runfolder import RunFolder
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("REGEN_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
+        run = tmp_path_factory.mktemp("run")
+        for name, path in scenarios.items():
+            out = run_path(path, run / RunFolder.SCENARIOS / name, pictures=False)
+            assert out.verdict.feasible, out.verdict.reason
+        yield run

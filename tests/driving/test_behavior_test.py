@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))  # the tests folder is not a package
-from driving_chains import FEASIBLE  # noqa: E402
+from driving_chains import FEASIBLE, verified_run  # noqa: E402
 
 pytest.importorskip("scenic")
 
@@ -31,15 +31,8 @@ CHILD = "01-child-crosses"  # stop_abruptly: a child runs across the road in fro
 
 @pytest.fixture(scope="module")
 def run_dir(tmp_path_factory):
-    """A run folder with one verified scenario (rule-based grounding, no pictures)."""
-    from regen.pipeline import run_path
-
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("REGEN_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
-        run = tmp_path_factory.mktemp("run")
-        out = run_path(FEASIBLE["stop_abruptly"][0], run / RunFolder.SCENARIOS / CHILD, pictures=False)
-        assert out.verdict.feasible, out.verdict.reason
-        yield run
+    """A run folder with one verified scenario."""
+    yield from verified_run(tmp_path_factory, {CHILD: FEASIBLE["stop_abruptly"][0]})
 
 
 @pytest.fixture(scope="module")

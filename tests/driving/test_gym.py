@@ -15,7 +15,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 sys.path.insert(0, str(Path(__file__).parent))  # the tests folder is not a package
-from driving_chains import FEASIBLE  # noqa: E402
+from driving_chains import FEASIBLE, verified_run  # noqa: E402
 
 pytest.importorskip("scenic")
 
@@ -38,16 +38,9 @@ CAR = "02-car-brakes"  # stop_abruptly: the car in front brakes hard
 
 @pytest.fixture(scope="module")
 def run_dir(tmp_path_factory):
-    """A run folder with two verified scenarios (rule-based grounding, no pictures)."""
-    from regen.pipeline import run_path
-
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("REGEN_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
-        run = tmp_path_factory.mktemp("run")
-        for name, path in ((CHILD, FEASIBLE["stop_abruptly"][0]), (CAR, FEASIBLE["stop_abruptly"][2])):
-            out = run_path(path, run / RunFolder.SCENARIOS / name, pictures=False)
-            assert out.verdict.feasible, out.verdict.reason
-        yield run
+    """A run folder with two verified scenarios."""
+    yield from verified_run(tmp_path_factory, {CHILD: FEASIBLE["stop_abruptly"][0],
+                                               CAR: FEASIBLE["stop_abruptly"][2]})
 
 
 def _episode_threads() -> list[threading.Thread]:

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))  # the tests folder is not a package
-from driving_chains import FEASIBLE  # noqa: E402
+from driving_chains import FEASIBLE, verified_run  # noqa: E402
 
 from regen.driving.ground import ground_rule_based  # noqa: E402
 from regen.driving.variants import feasible_with, sample_parameters, sample_variants  # noqa: E402
@@ -54,17 +54,9 @@ def test_another_seed_gives_other_variants_and_one_variant_is_the_scenario():
 
 @pytest.fixture(scope="module")
 def run_dir(tmp_path_factory):
-    """A run folder with one verified scenario (rule-based grounding, no pictures)."""
+    """A run folder with one verified scenario."""
     pytest.importorskip("scenic")
-    from regen.pipeline import run_path
-    from regen.runfolder import RunFolder
-
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("REGEN_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
-        run = tmp_path_factory.mktemp("run")
-        out = run_path(FEASIBLE["stop_abruptly"][0], run / RunFolder.SCENARIOS / CHILD, pictures=False)
-        assert out.verdict.feasible, out.verdict.reason
-        yield run
+    yield from verified_run(tmp_path_factory, {CHILD: FEASIBLE["stop_abruptly"][0]})
 
 
 @pytest.mark.slow

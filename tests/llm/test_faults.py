@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 from fault_server import (
     LONE_SURROGATE,
+    EdgeJudgement,
     FaultServer,
     answer,
     deep,
@@ -43,17 +44,6 @@ KINDS = ["openai", "anthropic"]
 GOOD = '{"causes": ["debris on the road"]}'
 TIMEOUT = 0.4  # [s] client timeout in these tests; a hang lasts longer
 
-
-class _Decision(Answer):
-    candidate: str
-    plausible: bool
-    reason: str = ""
-
-
-class EdgeJudgement(Answer):
-    """A nested answer (a list of objects with free text), as model answers often are."""
-
-    decisions: list[_Decision] = []
 
 
 class Causes(Answer):

@@ -7,6 +7,7 @@ import sqlite3
 from pathlib import Path
 
 import pytest
+from fault_server import EdgeJudgement
 
 from regen.core.base import Answer
 from regen.errors import MalformedAnswerError
@@ -19,17 +20,6 @@ from regen.llm.testing import QueuedProvider
 SURROGATE_JSON = '{"causes": ["A pedestrian \\ud800 crosses the road"]}'  # as the model wrote it
 CLEAN = ["A pedestrian \ufffd crosses the road"]
 
-
-class _Decision(Answer):
-    candidate: str
-    plausible: bool
-    reason: str = ""
-
-
-class EdgeJudgement(Answer):
-    """A nested answer (a list of objects with free text), as model answers often are."""
-
-    decisions: list[_Decision] = []
 
 
 class Causes(Answer):

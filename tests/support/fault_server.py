@@ -29,6 +29,8 @@ from typing import Any
 
 import pytest
 
+from regen.core.base import Answer
+
 HANG_SECONDS = 3.0  # [s] a hang lasts this long, then the connection closes without a reply
 MAX_REQUESTS = 64  # requests served; later ones are reset at once (a runaway retry loop)
 LIFETIME = 120.0  # [s] the server shuts itself down after this even if nobody closes it
@@ -118,6 +120,19 @@ LONE_SURROGATE = "A pedestrian \ud800 crosses the road"  # decoded: one unpaired
 def deep(levels: int = 100_000) -> str:
     """An answer nested ``levels`` deep."""
     return "[" * levels
+
+
+class _Decision(Answer):
+    candidate: str
+    plausible: bool
+    reason: str = ""
+
+
+class EdgeJudgement(Answer):
+    """A nested answer (a list of objects with free text), as model answers often are; the shape
+    :func:`huge_reason` writes."""
+
+    decisions: list[_Decision] = []
 
 
 def huge_reason(chars: int = 2_000_000) -> str:

@@ -316,12 +316,7 @@ def run_tests(run_dir: str | Path, policy_spec: str, *, variants: int = 1, seed:
                             message=f"the scenario could not be run: {exc}", **base)
         return case
 
-    for name in rf.scenario_names():
-        folder = rf.scenario(name)
-        scenario = folder.scenario()
-        if scenario is None or scenario.domain != "driving":
-            continue
-        verdict = folder.verdict()
+    for name, folder, scenario, verdict in rf.scenarios_of("driving"):
         if verdict is None or not verdict.feasible:
             why = "unfinished" if verdict is None else verdict.status
             cases = [TestCase(scenario=name, scenario_id=scenario.id, status="skipped", adversarial=adversarial,

@@ -23,11 +23,10 @@ from regen import media
 from regen.core.io import write_json
 from regen.core.scenario import Scenario
 from regen.core.trace import Trace
-from regen.driving.render import RenderOptions
-from regen.driving.render_actors import Actor, Canvas, actors_from_trace, text_font
-from regen.driving.render_frames import STAGE_FAILED, Story, choose_view, frame, palette
-from regen.driving.render_map import MAP_H, View, background, map_layers
-from regen.errors import ConfigError
+from regen.driving.render import RenderOptions, scene
+from regen.driving.render_actors import Actor, Canvas, text_font
+from regen.driving.render_frames import STAGE_FAILED, Story, frame, palette
+from regen.driving.render_map import MAP_H, View
 
 if TYPE_CHECKING:
     from regen.driving.behavior_test import TestCase
@@ -103,14 +102,7 @@ def render_failure(scenario: Scenario, trace: Trace, case: TestCase, out_dir: Pa
     ``options.fps`` frames per simulated second, played in simulated real time); the frame of
     the collision is always one of them. ConfigError for a trace with nothing to draw."""
     options = options or RenderOptions()
-    if trace.steps == 0:
-        raise ConfigError(f"test {case.scenario}: the episode has no steps; nothing to draw")
-    actors = actors_from_trace(trace)
-    if not actors:
-        raise ConfigError(f"test {case.scenario}: the episode has no drawable actors")
-    times = np.asarray(trace.times, float)
-    view = choose_view(actors)
-    bg = background(map_layers(scenario, trace), view)
+    actors, times, view, bg = scene(scenario, trace, f"test {case.scenario}")
     story = story_of_case(scenario, trace, case, policy)
     steps = media.animation_steps(times, options.animation)
     hit = None

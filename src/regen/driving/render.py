@@ -49,6 +49,18 @@ class RenderOptions:
         return media.AnimationSettings(max_frames=self.max_frames, fps=self.fps)
 
 
+def scene(scenario: Scenario, trace: Trace, what: str):
+    """What every picture of a trace is drawn from: (actors, times [s], view, background).
+    ConfigError naming ``what`` for a trace without steps or drawable actors."""
+    if trace.steps == 0:
+        raise ConfigError(f"{what}: the trace has no steps; nothing to draw")
+    actors = actors_from_trace(trace)
+    if not actors:
+        raise ConfigError(f"{what}: the trace has no drawable actors")
+    view = choose_view(actors)
+    return actors, np.asarray(trace.times, float), view, background(map_layers(scenario, trace), view)
+
+
 def render_scenario(scenario: Scenario, trace: Trace, verdict: Verdict, out_dir: Path,
                     options: RenderOptions | None = None) -> dict[str, Path]:
     """Draw a driving run: ``bird_eye.gif`` and ``keyframes.png`` in ``out_dir``.
@@ -61,15 +73,8 @@ def render_scenario(scenario: Scenario, trace: Trace, verdict: Verdict, out_dir:
     drawn as plain ground with a warning.
     """
     options = options or RenderOptions()
-    if trace.steps == 0:
-        raise ConfigError(f"scenario {scenario.id!r}: the trace has no steps; nothing to draw")
-    actors = actors_from_trace(trace)
-    if not actors:
-        raise ConfigError(f"scenario {scenario.id!r}: the trace has no drawable actors")
     out_dir = Path(out_dir)
-    times = np.asarray(trace.times, float)
-    view = choose_view(actors)
-    bg = background(map_layers(scenario, trace), view)
+    actors, times, view, bg = scene(scenario, trace, f"scenario {scenario.id!r}")
     story = story_of(scenario, trace, verdict)
 
     steps = media.animation_steps(times, options.animation)

@@ -190,12 +190,7 @@ def _entries(runs) -> tuple[list[_Entry], list[str]]:
         rf = RunFolder(run)
         if not (rf.path / RunFolder.SCENARIOS).is_dir():
             raise ConfigError(f"{rf.path} is not a run folder with scenarios (regen generate makes one)")
-        for name in rf.scenario_names():
-            folder = rf.scenario(name)
-            scenario = folder.scenario()
-            if scenario is None or scenario.domain != "driving":
-                continue
-            verdict = folder.verdict()
+        for name, folder, scenario, verdict in rf.scenarios_of("driving"):
             if verdict is None or not verdict.feasible:
                 skipped.append(f"{rf.path.name}/{name}")
                 continue
