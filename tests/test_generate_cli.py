@@ -7,6 +7,8 @@ import json
 
 import pytest
 from fake_expansion_model import ScriptedModel
+from fsm_answers import fsm
+from fsm_answers import state as _state
 from typer.testing import CliRunner
 
 from regen.cli import app
@@ -20,20 +22,18 @@ DOOR = "the robot opens the door"
 PET = "the pet is waiting outside to come in"
 
 
-def _state(stage, actor, name, *holds):
-    return {"stage": stage, "actor": actor, "name": name, "holds": list(holds)}
 
 
 # the graph fixed the child's behavior, start and speed: the model is asked only what the graph
 # left open (the narrative)
 CHILD_ROLES = {"narrative": "A child runs across the road from the sidewalk, so the ego brakes hard."}
 # over-strict: the ego must brake at the very step the child is already back on the far sidewalk
-STRICT_FSM = {"states": [
+STRICT_FSM = fsm(
     _state(1, "child1", "waiting", "on_sidewalk(child1)"),
     _state(2, "child1", "crossing", "on_road(child1)", "moving(child1)"),
     _state(3, "ego", "braking", "braking(ego)"),
     _state(3, "child1", "crossed", "on_sidewalk(child1)"),
-]}
+)
 
 
 def _plug(monkeypatch: pytest.MonkeyPatch, model, name: str = "scripted") -> None:

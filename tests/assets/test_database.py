@@ -131,3 +131,15 @@ def test_driving_start_locations_are_the_simulators_placements() -> None:
     from regen.driving.primitives import LOCATIONS
 
     assert set(domain_database("driving").properties["start_location"].states) == set(LOCATIONS)
+
+
+def test_named_states_take_the_longest_phrase_and_must_be_states(tmp_path: Path) -> None:
+    db = domain_database("driving")
+    assert db.named_state("traffic_light", "light_state", "The light TURNS red ahead") == ("turns_red", "turns red")
+    assert db.named_state("traffic_light", "light_state", "a car runs the red light") == ("red", "red light")
+    assert db.named_state("traffic_light", "light_state", "a child crosses the road") is None
+    assert db.named_state("sedan", "light_state", "the light turns red") is None  # not its property
+    data = _minimal()
+    data["properties"]["siren"]["named_by"] = {"wailing": ["siren wails"]}
+    with pytest.raises(AssetDatabaseError, match="named_by names wailing, which are not states"):
+        load_database(_write(tmp_path, data))

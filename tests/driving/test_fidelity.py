@@ -17,6 +17,7 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))  # the tests folder is not a package
 from driving_chains import FEASIBLE, chain  # noqa: E402
+from fsm_answers import fsm  # noqa: E402
 from test_llm_ground import (  # noqa: E402
     CHILD,
     CHILD_FSM,
@@ -221,9 +222,9 @@ def test_a_cyclist_standing_at_the_crosswalk_is_grounded_as_the_graph_chose():
     llm, provider = _llm({"narrative": "A cyclist stands on the crosswalk, so the ego stops.",
                           "bicycle1_behavior": "change_lane"},  # the swap observed: refused
                          {"narrative": "A cyclist stands on the crosswalk, so the ego stops."},
-                         {"states": [_state(1, "ego", "driving", "moving(ego, min_speed=3)"),
+                         fsm(_state(1, "ego", "driving", "moving(ego, min_speed=3)"),
                                      _state(2, "bicycle1", "ahead", "in_front(bicycle1, ego)"),
-                                     _state(3, "ego", "braking", "braking(ego)")]})
+                                     _state(3, "ego", "braking", "braking(ego)")))
     sc = ground_with_model(path, llm)
     assert "Fill in narrative." in provider.requests[0][-1]["content"]  # nothing left to choose
     assert_honors_the_graph(sc, path)
@@ -251,10 +252,10 @@ def test_defaults_fill_only_what_the_graph_left_open():
 
 
 def test_a_model_fsm_without_the_cause_gets_the_rules_cause_stage():
-    no_cause = {"states": [_state(1, "child1", "waiting", "on_sidewalk(child1)"),
+    no_cause = fsm(_state(1, "child1", "waiting", "on_sidewalk(child1)"),
                            _state(1, "ego", "driving", "moving(ego, min_speed=3)"),
                            _state(2, "ego", "braking", "braking(ego)"),
-                           _state(3, "ego", "stopped", "stopped(ego)")]}
+                           _state(3, "ego", "stopped", "stopped(ego)"))
     llm, _ = _llm(CHILD_ROLES, no_cause)
     sc = ground_with_model(CHILD, llm)
     assert sc.fsm.as_tuples() == [[("child1", "waiting"), ("ego", "driving")], [("child1", "crossing")],
@@ -268,13 +269,13 @@ def test_a_model_fsm_without_the_cause_gets_the_rules_cause_stage():
 
 
 def test_a_weaker_or_later_cause_state_of_the_model_does_not_count():
-    late = {"states": [_state(1, "child1", "waiting", "on_sidewalk(child1)"),
+    late = fsm(_state(1, "child1", "waiting", "on_sidewalk(child1)"),
                        _state(1, "ego", "driving", "moving(ego, min_speed=3)"),
                        _state(2, "child1", "on_road", "on_road(child1)", "moving(child1)"),  # weaker
                        _state(3, "ego", "braking", "braking(ego)"),
                        # as strong as the rules', but after the reaction
                        _state(4, "child1", "crossing", "same_lane(child1, ego)", "ahead_of(child1, ego)",
-                              "moving(child1)")]}
+                              "moving(child1)"))
     llm, _ = _llm(CHILD_ROLES, late)
     sc = ground_with_model(CHILD, llm)
     assert sc.fsm.as_tuples() == [[("child1", "waiting"), ("ego", "driving")], [("child1", "on_road")],
@@ -392,12 +393,12 @@ def test_recorded_red_light_answers_still_replay_and_honor_the_graph():
     assert llm.stats.total.model_calls == 0 and llm.stats.total.cache_hits == 2
     assert_honors_the_graph(sc, path)
     assert sc.world["model_parts"] == "narrative,roles,fsm" and sc.fsm_source == "model+rules"
-    # its own "turning_red" is the light turning red; the rules add the green before it
-    assert sc.fsm.state("traffic_light1", "turning_red").cause
+    # its own state (named "light_is") is the light red; the rules add the green before it
+    assert sc.fsm.state("traffic_light1", "light_is").cause
     assert sc.fallbacks == ["cause stages added by rules: traffic_light1: green (light_is(traffic_light1, "
                             "value=green))"]
-    assert sc.fsm.as_tuples()[:3] == [[("traffic_light1", "green")], [("ego", "driving")],
-                                      [("traffic_light1", "turning_red")]]
+    assert sc.fsm.as_tuples() == [[("traffic_light1", "green")], [("traffic_light1", "light_is"), ("ego", "driving")],
+                                  [("ego", "stop")]]
 
 
 def _recorded_answers(key: str) -> LLM:
@@ -440,9 +441,9 @@ def test_recorded_answers_simulate_as_the_graph_chose_or_say_why_not(key, tmp_pa
     assert_honors_the_graph(scenario, path)
     if r.verdict.feasible:
         assert_causes_before_the_reaction(scenario)
-    else:  # the model's own FSM wants the light green again after red, the ambulance braking
-        assert r.verdict.status == "fsm_incomplete"
-        assert {"red_light": "turning_green", "ambulance": "ambulance1: braking"}[key] in r.verdict.reason
+    else:  # the model's own FSM wants the ego at 5 m/s or more and slower than 5 m/s at once
+        assert key == "ambulance" and r.verdict.status == "fsm_incomplete"
+        assert "ego: braking" in r.verdict.reason
 
 
 def test_a_path_the_rules_cannot_place_raises_before_any_model_call():

@@ -11,6 +11,8 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))  # the tests folder is not a package
 from driving_chains import FEASIBLE, IMPOSSIBLE, chain  # noqa: E402
+from fsm_answers import fsm  # noqa: E402
+from fsm_answers import state as _state  # noqa: E402
 
 from regen.driving.backend import DrivingBackend, scenic_program  # noqa: E402
 from regen.driving.feasibility import never_holds  # noqa: E402
@@ -39,18 +41,16 @@ CHILD_ROLES = {"narrative": "A child runs across the road from the sidewalk, so 
 OPEN_CHILD = chain("stop_abruptly", "a child runs across the road", ("child", {}))
 
 
-def _state(stage, actor, name, *holds):
-    return {"stage": stage, "actor": actor, "name": name, "holds": list(holds)}
 
 
-CHILD_FSM = {"states": [
+CHILD_FSM = fsm(
     _state(1, "child1", "waiting", "on_sidewalk(child1)"),
     _state(1, "ego", "driving", "moving(ego, min_speed=3)"),
     # gap: 3 becomes 2; it shows the cause (moving in the ego's lane ahead), so none is added
     _state(3, "child1", "crossing", "same_lane(child1, ego)", "ahead_of(child1, ego)", "moving(child1)"),
     _state(4, "ego", "braking", "braking(ego)"),
     _state(5, "ego", "stopped", "stopped(ego)", "not in_front(child1, ego, distance=2)"),
-]}
+)
 
 
 def _llm(*answers) -> tuple[LLM, QueuedProvider]:
@@ -93,20 +93,21 @@ def test_model_roles_change_the_placement():
 
 
 def test_unknown_actor_and_predicate_are_reasked_then_accepted():
-    bad = {"states": [_state(1, "ambulance1", "behind", "behind(ambulance1, ego)"),
-                      _state(2, "ego", "flying", "levitates(ego)")]}
+    bad = fsm(_state(1, "ambulance1", "behind", "behind(ambulance1, ego)"),
+                      _state(2, "ego", "flying", "levitates(ego)"))
     llm, provider = _llm(CHILD_ROLES, bad, CHILD_FSM)
     sc = ground_with_model(CHILD, llm)
     assert sc.world["grounder"] == "model"
     reask = provider.requests[2][-1]["content"]
-    assert "states.0.actor" in reask and "levitates" in reask  # the errors went back to the model
-    assert "'ego' or 'child1'" in reask
+    # the errors went back to the model: an unknown actor, an actor left out, an unknown predicate
+    assert "states.ambulance1: Extra inputs are not permitted" in reask
+    assert "states.child1: Field required" in reask and "levitates" in reask
     assert llm.stats.by_purpose["ground_fsm"].reasks == 1
 
 
 def test_fsm_that_stays_invalid_falls_back_to_the_rules_with_the_reason():
-    bad = {"states": [_state(1, "child1", "w", "on_sidewalk(child1)"),
-                      _state(2, "ego", "flying", "levitates(ego)")]}
+    bad = fsm(_state(1, "child1", "w", "on_sidewalk(child1)"),
+                      _state(2, "ego", "flying", "levitates(ego)"))
     llm, _ = _llm(CHILD_ROLES, bad, bad, bad)
     sc = ground_with_model(CHILD, llm)
     assert sc.world["grounder"] == "model+rules"
@@ -118,8 +119,8 @@ def test_fsm_that_stays_invalid_falls_back_to_the_rules_with_the_reason():
 
 
 def test_after_a_failed_fsm_schema_the_same_client_uses_the_rules_without_asking():
-    bad = {"states": [_state(1, "child1", "w", "on_sidewalk(child1)"),
-                      _state(2, "ego", "driving", "moving(ego, min_speed=10)")]}  # it drives at most 10 m/s
+    bad = fsm(_state(1, "child1", "w", "on_sidewalk(child1)"),
+                      _state(2, "ego", "driving", "moving(ego, min_speed=10)"))  # it drives at most 10 m/s
     llm, provider = _llm(CHILD_ROLES, bad, bad, bad, {"narrative": "An ambulance overtakes with its siren on."})
     first = ground_with_model(CHILD, llm)
     assert first.world["rule_parts"] == "fsm" and llm.stats.by_purpose["ground_fsm"].calls == 3
@@ -185,9 +186,9 @@ def test_infeasible_model_roles_fall_back_to_feasible_rule_roles():
     lead = chain("stop_abruptly", "the car in front brakes hard", ("sedan", {
         "behavior": ["drive_forward"], "start_location": ["ahead_same_lane"]}))
     roles = {"narrative": "The car in front brakes hard.", "sedan1_speed": "slow"}
-    fsm = {"states": [_state(1, "sedan1", "leading", "in_front(sedan1, ego, distance=60)"),
-                      _state(2, "ego", "stopped", "stopped(ego)")]}
-    llm, _ = _llm(roles, fsm)
+    answer = fsm(_state(1, "sedan1", "leading", "in_front(sedan1, ego, distance=60)"),
+                 _state(2, "ego", "stopped", "stopped(ego)"))
+    llm, _ = _llm(roles, answer)
     sc = ground_with_model(lead, llm)
     assert sc.solver.status in ("optimal", "feasible")
     assert sc.entity("sedan1").behavior_params["speed_class"] == "moderate"
@@ -198,11 +199,11 @@ def test_infeasible_model_roles_fall_back_to_feasible_rule_roles():
 
 def test_fsm_that_can_never_hold_is_reasked():
     roles = {"narrative": "An ambulance with its siren on overtakes the ego."}  # the graph chose the rest
-    bad = {"states": [_state(1, "ambulance1", "passing", "behind(ambulance1, ego)", "changing_lane(ambulance1)"),
-                      _state(2, "ego", "yielding", "siren_on(ego)")]}
-    good = {"states": [_state(1, "ambulance1", "approaching", "behind(ambulance1, ego)", "siren_on(ambulance1)"),
+    bad = fsm(_state(1, "ambulance1", "passing", "behind(ambulance1, ego)", "changing_lane(ambulance1)"),
+                      _state(2, "ego", "yielding", "siren_on(ego)"))
+    good = fsm(_state(1, "ambulance1", "approaching", "behind(ambulance1, ego)", "siren_on(ambulance1)"),
                        _state(2, "ego", "braking", "braking(ego, min_decel=4)"),
-                       _state(3, "ambulance1", "passed", "ahead_of(ambulance1, ego)")]}
+                       _state(3, "ambulance1", "passed", "ahead_of(ambulance1, ego)"))
     llm, provider = _llm(roles, bad, good)
     sc = ground_with_model(AMBULANCE, llm)
     reask = provider.requests[2][-1]["content"]
@@ -210,7 +211,7 @@ def test_fsm_that_can_never_hold_is_reasked():
     assert "'changing_lane' is not a predicate of this scenario" in reask  # nobody changes lanes
     assert sc.world["grounder"] == "model"
     # the model's states, and the rules' cause state (closing in, in the next lane, siren on)
-    assert [s.name for s in sc.fsm.states] == ["approaching", "braking", "passed", "close_behind"]
+    assert [s.name for s in sc.fsm.states] == ["approaching", "passed", "braking", "close_behind"]
     assert sc.fsm.as_tuples()[1:3] == [[("ambulance1", "close_behind")], [("ego", "braking")]]
     assert sc.fsm_source == "model+rules" and sc.fallbacks[0].startswith("cause stages added by rules: ")
 
@@ -331,15 +332,21 @@ def test_never_holds_knows_primitives_properties_and_maps():
 def test_fsm_schema_constrains_names_for_constrained_decoding():
     base = ground_rule_based(CHILD)
     schema = fsm_schema(roles_of(base), template_of(base)).model_json_schema()
-    state = schema["$defs"]["State"]["properties"]
-    assert state["actor"]["enum"] == ["ego", "child1"]
+    per_actor = schema["$defs"]["ActorStates"]
+    # every actor is a required key, the causes first and the ego last: none can be left out
+    assert per_actor["required"] == ["child1", "ego"] and per_actor["additionalProperties"] is False
+    assert per_actor["properties"]["child1"]["minItems"] == 1 and per_actor["properties"]["ego"]["maxItems"] == 3
+    state = schema["$defs"]["State_ego"]["properties"]
     assert state["stage"]["enum"] == [1, 2, 3, 4, 5, 6]
-    pattern = state["holds"]["items"]["pattern"]
     import re
 
-    rx = re.compile(pattern)
-    assert rx.match("on_road(child1)") and rx.match("not in_front(child1, ego, distance=2)")
-    assert not rx.match("siren_on(child1)") and not rx.match("moving(bob)")
+    rx = re.compile(state["holds"]["items"]["pattern"])
+    child = re.compile(schema["$defs"]["State_child1"]["properties"]["holds"]["items"]["pattern"])
+    assert child.match("on_road(child1)") and child.match("not in_front(child1, ego, distance=2)")
+    assert rx.match("not in_front(child1, ego, distance=2)")  # a call about both actors
+    # a state's calls name its actor
+    assert not rx.match("on_road(child1)") and not child.match("moving(ego)")
+    assert not child.match("siren_on(child1)") and not rx.match("moving(bob)")
     assert rx.match("moving(ego, min_speed=2.5)") and not rx.match("moving(ego, speed=2.5)")
     assert not rx.match("behind(ego)") and not rx.match("moving(ego, child1)")
     # what the validator would reject cannot be written at all (no answer thrown away for it):
@@ -347,8 +354,20 @@ def test_fsm_schema_constrains_names_for_constrained_decoding():
     top = max([template_of(base).speed0] + [v for _, v, _ in template_of(base).schedule])
     assert rx.match(f"moving(ego, min_speed={int(top) - 1})")
     assert not rx.match(f"moving(ego, min_speed={int(top)})") and not rx.match("moving(ego, min_speed=150)")
-    assert not rx.match("in_front(child1, child1)") and not rx.match("turning(child1)")
-    assert not rx.match("in_front(child1, ego, distance=250)")
+    assert not child.match("in_front(child1, child1)") and not child.match("turning(child1)")
+    assert not child.match("in_front(child1, ego, distance=250)")
+
+
+def test_fsm_schema_offers_only_the_light_values_the_light_shows():
+    light = ground_rule_based(chain("stop_in_intersection", "the light turns red",
+                                    ("traffic_light", {"light_state": ["turns_red"]})))
+    schema = fsm_schema(roles_of(light), template_of(light)).model_json_schema()
+    import re
+
+    rx = re.compile(schema["$defs"]["State_traffic_light1"]["properties"]["holds"]["items"]["pattern"])
+    assert rx.match("light_is(traffic_light1, value=red)") and rx.match("light_is(traffic_light1, value=green)")
+    assert not rx.match("light_is(traffic_light1, value=off)")  # it never shows off
+    assert not rx.match("light_is(traffic_light1)")  # the value is what the state is about
 
 
 # --- through simulation ----------------------------------------------------------------------
@@ -359,13 +378,13 @@ def test_over_strict_model_stage_is_relaxed_after_simulation(tmp_path):
     pytest.importorskip("scenic")
     from regen.pipeline import run_path
 
-    strict = {"states": [
+    strict = fsm(
         _state(1, "child1", "waiting", "on_sidewalk(child1)"),
         _state(2, "child1", "crossing", "on_road(child1)", "moving(child1)"),
         # the model wants the ego to brake while the child is already on the far sidewalk
         _state(3, "ego", "braking", "braking(ego)"),
         _state(3, "child1", "crossed", "on_sidewalk(child1)"),
-    ]}
+    )
     llm, _ = _llm(CHILD_ROLES, strict)
     r = run_path(CHILD, tmp_path / "child", llm=llm, pictures=False)
     scenario = r.scenario()  # the scenario folder holds the FSM the verdict judged
@@ -386,13 +405,13 @@ RECORDED = CASSETTES / "ground_driving.json"
 RECORDED_PATHS = CASSETTES / "ground_driving_paths.json"
 # What the offline model (Qwen2.5-Coder-1.5B, Q4_K_M) answered, as observed when recording:
 # key -> (grounder, model parts, verdict status). Every FSM answer validates at once (the schema
-# only admits calls that can hold); for the ambulance and the red light the model's own FSM then
-# asks for what never happens (the ambulance braking, the light green again after red): recorded,
-# honest failures of the model's FSM, not replaced by the rules.
+# has a required list per actor and only admits calls that can hold); for the ambulance the
+# model's own FSM then asks for an ego state that never holds (moving at 5 m/s or more and slower
+# than 5 m/s at once): a recorded, honest failure of the model's FSM, not replaced by the rules.
 OBSERVED: dict[str, tuple[str, str, str]] = {
     "jaywalker": ("model", "narrative,roles,fsm", "verified"),
     "ambulance": ("model", "narrative,roles,fsm", "fsm_incomplete"),
-    "red_light": ("model", "narrative,roles,fsm", "fsm_incomplete"),
+    "red_light": ("model", "narrative,roles,fsm", "verified"),
 }
 
 
@@ -427,7 +446,10 @@ def test_recorded_model_answers_ground_simulate_and_verify(key, tmp_path):
     # every FSM answer validated (the schema only lets the model write calls that can hold);
     # the rules added the cause stages the model left out, and the verdict says so
     assert any(f.startswith("cause stages added by rules") for f in r.verdict.fallbacks)
-    if key == "red_light":  # the model wants the light to turn green again: it never does
-        assert r.verdict.first_unmet_stage == 5 and "turning_green" in r.verdict.reason
-    if key == "ambulance":  # the model wants the ambulance to brake: it never does
-        assert r.verdict.first_unmet_stage == 5 and "ambulance1: braking" in r.verdict.reason
+    if key == "ambulance":  # the ego's "braking" state contradicts itself: it never holds
+        assert r.verdict.first_unmet_stage == 3 and "never held after the previous stage: ego: braking" \
+            in r.verdict.reason
+        # the ambulance's braking, which never happens either, was dropped; the ego's own state
+        # never is, so the scenario stays unverified
+        assert [x.split(" (")[0] for x in r.verdict.relaxations] == [
+            "stage 3: dropped the model's state ambulance1: braking"]

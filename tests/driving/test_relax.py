@@ -39,7 +39,7 @@ def test_simultaneous_stage_is_split_and_recorded():
     sc = _scenario([both])
     verdict, relaxed = verify(sc, _trace())
     assert verdict.feasible and verdict.status == "verified_after_relaxation"
-    assert "after relaxing 1 over-strict stage" in verdict.reason
+    assert "after relaxing 1 stage(s) of the FSM" in verdict.reason
     assert len(relaxed.fsm.stages) == 2
     assert relaxed.fsm.stages[0].conditions[0].state == "braking"  # held first, so comes first
     assert verdict.relaxations and "relaxed into 2 consecutive stages" in verdict.relaxations[0]

@@ -215,6 +215,19 @@ def test_driving_aliases_match_and_the_papers_tree_stays_unsimulatable() -> None
     assert _node(g, "tree", "entity").history[-1].reason == "'tree' is not in the driving asset database"
 
 
+def test_a_state_the_events_words_name_is_the_only_choice_and_the_others_say_why() -> None:
+    # the offline model chose light_state = red for "the light turns red" (a light red from the
+    # start): the event's words name turns_red, so the judge is offered only that
+    light = "the traffic light ahead turns red"
+    model = ScriptedModel(causes={STOP: [light]}, entities={light: ["traffic_light"]},
+                          choose={"light_state": ["red"]})
+    g = _expand("driving", model)
+    assert _node(g, "light_state = turns_red", "property").status == "accepted"
+    red = _node(g, "light_state = red", "property")
+    assert red.status == "rejected" and red.history[-1].by == "rule"
+    assert red.history[-1].reason == 'the event says "turns red", which names light_state = turns_red'
+
+
 # --- 3. the user insists: --cause; the user asks: --candidate --------------------------------------
 
 

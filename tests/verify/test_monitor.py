@@ -89,3 +89,32 @@ def test_predicates_are_vectorized_over_steps() -> None:
     tr = _trace([0.0, 0.2, 1.0], [0, 0, 0])
     out = get_predicate("moving", "driving").fn(tr, ["ego"], {"min_speed": 0.5})
     assert isinstance(out, np.ndarray) and out.tolist() == [False, False, True]
+
+
+def _with_far(sc: Scenario, stages: list[list[tuple[str, str]]], *, cause: bool = False,
+              source: str = "model") -> Scenario:
+    """``sc`` plus a model state 'far' of amb that never holds (more than 100 m away)."""
+    far = AbstractState(name="far", actor="amb", cause=cause, all_of=[
+        PredicateCall(name="far_from", args=["amb", "ego"], params={"distance": 100.0})])
+    fsm = FSM(states=[*sc.fsm.states, far],
+              stages=[Stage(conditions=[StateRef(actor=a, state=s) for a, s in st]) for st in stages])
+    return sc.model_copy(update={"fsm": fsm, "fsm_source": source})
+
+
+def test_a_model_state_of_another_actor_that_never_holds_is_dropped_and_said() -> None:
+    from regen.verify.relax import verify_with_relaxation
+
+    tr = _trace([10, 10, 5, 0, 0, 0], [-30, -20, -8, 0, 8, 20])
+    base = _scenario([])
+    sc = _with_far(base, [[("ego", "driving")], [("amb", "near"), ("amb", "far")], [("ego", "stopped")]])
+    assert check_fsm(sc, tr).status == "fsm_incomplete"
+    v, judged = verify_with_relaxation(sc, tr)
+    assert v.status == "verified_after_relaxation"
+    assert v.relaxations and "dropped the model's state amb: far (far_from(amb, ego, distance=100" in v.relaxations[0]
+    assert judged.fsm.as_tuples() == [[("ego", "driving")], [("amb", "near")], [("ego", "stopped")]]
+    # never a cause state, a robot's state, or a state of a rule-written FSM
+    for other in (_with_far(base, [[("ego", "driving")], [("amb", "far")], [("ego", "stopped")]], cause=True),
+                  _with_far(base, [[("ego", "stopped")], [("ego", "driving")]]),  # the ego never drives again
+                  _with_far(base, [[("ego", "driving")], [("amb", "far")], [("ego", "stopped")]], source="rules")):
+        v, _ = verify_with_relaxation(other, tr)
+        assert not v.feasible and v.relaxations == []

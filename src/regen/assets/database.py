@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 import networkx as nx
-from pydantic import Field, ValidationError
+from pydantic import Field, ValidationError, model_validator
 
 from regen.core.base import Model
 from regen.core.text import UNSAFE, escaped
@@ -42,6 +42,17 @@ class AssetSpec(Model):
 class PropertySpec(Model):
     description: str
     states: list[str] | None = None  # None: free values, proposed by the model
+    #: phrases that name a state in an event's words ("turns red" -> turns_red): where one occurs
+    #: in the event an entity takes part in, that state is the property's only choice
+    named_by: dict[str, list[str]] = Field(default_factory=dict)
+
+    @model_validator(mode="after")
+    def _named_states(self) -> PropertySpec:
+        unknown = [s for s in self.named_by if s not in (self.states or [])]
+        if unknown:
+            raise ValueError(f"named_by names {', '.join(unknown)}, which are not states of this "
+                             f"property ({', '.join(self.states or []) or 'free values'})")
+        return self
 
 
 class BehaviorSpec(Model):
@@ -221,6 +232,19 @@ class AssetDatabase(Model):
             return list(spec.behaviors)
         states = self.properties[prop].states
         return None if states is None else list(states)
+
+    def named_state(self, asset: str, prop: str, event: str) -> tuple[str, str] | None:
+        """The state of ``prop`` that ``event``'s words name for ``asset`` as ``(state, phrase)``
+        (the longest phrase found, whole words, any case), or None."""
+        if prop not in self.parameters_of(asset):
+            return None
+        text = " ".join(event.lower().split())
+        found = [(len(ph), st, ph) for st, phrases in self.properties[prop].named_by.items()
+                 for ph in phrases if re.search(rf"\b{re.escape(ph.lower())}\b", text)]
+        if not found:
+            return None
+        _, state, phrase = max(found)
+        return state, phrase
 
     def parameters_of(self, asset: str) -> list[str]:
         """Properties of an asset, behaviors' parameters included (each once, in order)."""

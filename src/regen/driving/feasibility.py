@@ -109,7 +109,7 @@ def _ego_never(call: PredicateCall, t: EgoTemplate) -> str | None:
         return why
     if name == "stopped" and t.id in ("slow_down", "change_lane"):
         return why
-    if name == "braking" and t.id in ("drive_forward", "change_lane"):
+    if name in ("braking", "brake_lights_on") and t.id in ("drive_forward", "change_lane"):
         return why
     if name == "accelerating" and t.id != "drive_forward":  # starts at its cruising speed
         return why

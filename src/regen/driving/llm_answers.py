@@ -6,11 +6,13 @@ Two small, flat schemas (the offline model is a 1.5B model with schema-constrain
   ``<actor>_speed``, each a ``Literal`` of what the asset supports, the primitive library
   implements and the ego's map can host; only those the causal graph left open (what it
   chose is binding and is not asked);
-* FSM: a list of abstract states ``{"stage", "actor", "name", "holds"}``. Each state carries the
-  number of the stage it belongs to, so a stage can never name a state that does not exist;
-  ``holds`` are 1-3 predicate calls written as ``name(a, b, param=value)`` with an optional
-  leading ``not``. The JSON schema carries a regex over the exact predicate and actor names, so
-  constrained decoding can only write known calls; the validators here parse them (nothing is
+* FSM: per actor (every actor a required key, the ego last), its abstract states
+  ``{"stage", "name", "holds"}``. Each state carries the number of the stage it belongs to, so
+  a stage can never name a state that does not exist, and no actor can be left without one;
+  ``holds`` are 1-3 predicate calls that name the state's actor, written as
+  ``name(a, b, param=value)`` with an optional leading ``not``. The JSON schema carries a regex
+  over the exact predicate and actor names, so constrained decoding can only write known calls
+  that can hold; the validators here parse them (nothing is
   ever evaluated) and check arity, parameters, and whether the call can hold at all for the
   chosen primitive and properties (the rules of :mod:`regen.driving.feasibility`).
 
@@ -33,15 +35,15 @@ from regen.core.base import Answer
 from regen.core.scenario import FSM, AbstractState, PredicateCall, Stage, StateRef
 from regen.driving.actors import RoleChoice
 from regen.driving.ego import EgoTemplate
-from regen.driving.feasibility import available, never_holds, top_speed
+from regen.driving.feasibility import available, light_values, never_holds, top_speed
 from regen.driving.ground import choose_map
 from regen.driving.primitives import get, is_state_only
 from regen.driving.primitives.base import SPEED_CLASSES
 from regen.errors import GroundingError
 from regen.verify.predicates import PredicateSpec
 
-MAX_STATES = 8
 MAX_STAGES = 6
+MAX_ACTOR_STATES = 3  # a short list: the small model pads long ones with repeats
 NARRATIVE_CHARS = 400  # [characters]
 LIGHT_VALUES = ("red", "yellow", "green", "off")
 _STATE_NAME = re.compile(r"^[a-z][a-z0-9_]{0,31}$")
@@ -204,13 +206,15 @@ def below(limit: float) -> str:
 
 
 def call_pattern(specs: list[PredicateSpec], actors: list[str],
-                 roles: dict[str, RoleChoice] | None = None, template: EgoTemplate | None = None) -> str:
+                 roles: dict[str, RoleChoice] | None = None, template: EgoTemplate | None = None,
+                 about: str | None = None) -> str:
     """The regex of a predicate call over exact predicate, actor and parameter names (for the
     schema): constrained decoding can then write no unknown name at all. With the scenario's
     ``roles`` and ``template``, only calls that can hold: actor combinations that
-    :func:`~regen.driving.feasibility.never_holds` rules out, an actor compared with itself and
-    speed thresholds at or above what the actor can reach cannot be written either, so no answer
-    is thrown away for them."""
+    :func:`~regen.driving.feasibility.never_holds` rules out, an actor compared with itself, a
+    light value the light never shows and speed thresholds at or above what the actor can reach
+    cannot be written either, so no answer is thrown away for them. With ``about``, only calls
+    that name that actor (the calls of one actor's state)."""
     num = NUMBER  # no backslash escapes: they do not survive the grammar
     alts = []
     for s in specs:
@@ -221,20 +225,41 @@ def call_pattern(specs: list[PredicateSpec], actors: list[str],
         else:
             for c in itertools.product(actors, repeat=s.arity):
                 call = PredicateCall(name=s.name, args=list(c))
-                if len(set(c)) < s.arity or (s.name != "light_is" and never_holds(call, roles, template)):
+                if (len(set(c)) < s.arity or (about is not None and about not in c)
+                        or (s.name != "light_is" and never_holds(call, roles, template))):
                     continue
                 per.append((", ".join(re.escape(a) for a in c), c[0]))
         for args, first in per:
             params = []
             for k, default in s.params.items():
                 if s.name == "light_is" and k == "value":
-                    params.append(f"{k}=({'|'.join(LIGHT_VALUES)})")
+                    shown = _shown(first, roles, template)
+                    if not shown:
+                        params = None
+                        break
+                    params.append(f"{k}=({'|'.join(shown)})")
                 elif not isinstance(default, str):
                     top = _top(first, roles, template) if k == "min_speed" else None
                     params.append(f"{k}={below(top) if top is not None else num}")
+            if params is None:  # a light that shows none of the values
+                continue
             extra = f"(, ({'|'.join(params)}))?" if params else ""
+            if s.name == "light_is":  # the value is what the state is about: always written
+                extra = f", ({'|'.join(params)})"
             alts.append(rf"{s.name}\({args}{extra}\)")
     return "^(not )?(" + "|".join(alts) + ")$"
+
+
+def _shown(actor: str | None, roles: dict[str, RoleChoice] | None,
+           template: EgoTemplate | None) -> list[str]:
+    """The light values ``light_is`` may name for ``actor``: those it shows (all when unknown)."""
+    if actor is None or roles is None or template is None:
+        return list(LIGHT_VALUES)
+    r = roles.get(actor)
+    if r is None or r.asset != "traffic_light":
+        return []
+    shown = light_values(r, template)
+    return [v for v in LIGHT_VALUES if v in shown]
 
 
 def _top(actor: str | None, roles: dict[str, RoleChoice] | None, template: EgoTemplate | None) -> float | None:
@@ -289,66 +314,60 @@ def _param_value(text: str, name: str, key: str, val: str, default: float | str)
     return num
 
 
-def max_states(n_actors: int) -> int:
-    """How many states an FSM answer may have (the ego included in ``n_actors``)."""
-    return min(MAX_STATES, 2 * n_actors + 1)
-
-
 def fsm_schema(roles: list[RoleChoice], template: EgoTemplate) -> type[Answer]:
-    """The per-path FSM schema: states with their stage number and predicate calls."""
+    """The per-path FSM schema: per actor (each one required, the ego last), its states with
+    their stage number and predicate calls that name that actor. An actor without a state
+    cannot be written, nor a call about another actor."""
     actors = ["ego"] + [r.name for r in roles]
     by_name = {r.name: r for r in roles}
     specs = {s.name: s for s in available(roles, template)}
-    pattern = call_pattern(list(specs.values()), actors, by_name, template)
-    Actor = _lit(tuple(actors))
-    CallText = Annotated[str, Field(json_schema_extra={"pattern": pattern})]
+    stage_type = _lit(tuple(range(1, MAX_STAGES + 1)))
 
-    class State(Answer):
-        stage: _lit(tuple(range(1, MAX_STAGES + 1)))  # type: ignore[valid-type]
-        actor: Actor  # type: ignore[valid-type]
-        # unbounded in the schema (a bounded repeat is a slow nested grammar rule)
-        name: Annotated[str, Field(json_schema_extra={"pattern": "^[a-z][a-z0-9_]*$"})]
-        holds: list[CallText] = Field(min_length=1, max_length=3)  # type: ignore[valid-type]
+    def state_model(actor: str) -> type[Answer]:
+        pattern = call_pattern(list(specs.values()), actors, by_name, template, about=actor)
+        call_text = Annotated[str, Field(json_schema_extra={"pattern": pattern})]
 
-        @field_validator("name")
-        @classmethod
-        def _name(cls, v: str) -> str:
+        def _name(cls: type, v: str) -> str:
             if not _STATE_NAME.match(v):
                 raise ValueError(f"state name {v!r}: use lower-case letters, digits and '_' "
                                  "(at most 32), starting with a letter")
             return v
 
-        @model_validator(mode="after")
-        def _calls(self) -> State:
+        def _calls(self: Any) -> Any:
             problems = []
             for text in self.holds:
                 call = parse_call(text, specs, actors)
+                if actor not in call.args:
+                    problems.append(f"{text!r} does not name {actor}")
                 why = never_holds(call, by_name, template)
                 if why:
                     problems.append(why)
             if problems:
-                raise ValueError(f"state {self.name!r} of {self.actor}: " + "; ".join(problems)
+                raise ValueError(f"state {self.name!r} of {actor}: " + "; ".join(problems)
                                  + "; choose predicates that can hold")
             return self
 
+        return create_model(
+            f"State_{actor}", __base__=Answer,
+            __validators__={"check_name": field_validator("name")(classmethod(_name)),
+                            "check_calls": model_validator(mode="after")(_calls)},
+            stage=(stage_type, ...),
+            # unbounded in the schema (a bounded repeat is a slow nested grammar rule)
+            name=(Annotated[str, Field(json_schema_extra={"pattern": "^[a-z][a-z0-9_]*$"})], ...),
+            holds=(list[call_text], Field(min_length=1, max_length=3)))  # type: ignore[valid-type]
+
+    order = [a for a in actors if a != "ego"] + ["ego"]  # the causes first, then the ego's reaction
+    fields: dict[str, Any] = {
+        a: (list[state_model(a)], Field(min_length=1, max_length=MAX_ACTOR_STATES))  # type: ignore[misc]
+        for a in order}
+    actor_states = create_model("ActorStates", __base__=Answer, **fields)
+
     class GroundFSM(Answer):
-        # a short list: the small model pads long ones with repeats
-        states: list[State] = Field(min_length=2, max_length=max_states(len(actors)))
+        states: actor_states  # type: ignore[valid-type]
 
         @model_validator(mode="after")
         def _whole(self) -> GroundFSM:
-            # the same state may recur in several stages; two meanings under one name may not
-            seen: dict[tuple[str, str], list[str]] = {}
-            for s in self.states:
-                holds = [" ".join(h.split()) for h in s.holds]
-                if seen.setdefault((s.actor, s.name), holds) != holds:
-                    raise ValueError(f"{s.actor} has two different states named {s.name!r}; "
-                                     "rename one")
-            missing = [a for a in actors if a not in {s.actor for s in self.states}]
-            if missing:
-                raise ValueError(f"no state for {', '.join(missing)}: give every actor, the ego "
-                                 "included, at least one state")
-            if len({s.stage for s in self.states}) < 2:
+            if len({s.stage for s in flat_states(self)}) < 2:
                 raise ValueError("all states share one stage; use stage numbers to order them "
                                  "(1 at the start, higher later)")
             return self
@@ -359,15 +378,43 @@ def fsm_schema(roles: list[RoleChoice], template: EgoTemplate) -> type[Answer]:
     return GroundFSM
 
 
+@dataclass(frozen=True)
+class FlatState:
+    """One state of an FSM answer, its actor named."""
+
+    stage: int
+    actor: str
+    name: str
+    holds: tuple[str, ...]
+
+
+def flat_states(answer: Any) -> list[FlatState]:
+    """The states of a per-actor FSM answer, each with its actor. A name one actor uses for two
+    different meanings gets a number (``braking_2``): names are labels, the calls the meaning."""
+    out: list[FlatState] = []
+    for actor, states in answer.states:
+        seen: dict[str, tuple[str, ...]] = {}
+        for s in states:
+            holds = tuple(" ".join(h.split()) for h in s.holds)
+            name, k = s.name, 1
+            while seen.setdefault(name, holds) != holds:
+                k += 1
+                name = f"{s.name}_{k}"
+            out.append(FlatState(stage=s.stage, actor=actor, name=name, holds=holds))
+    return out
+
+
+
 def answer_fsm(answer: Any, specs: dict[str, PredicateSpec], actors: list[str]) -> FSM:
     """The FSM of a validated answer: stages in order of their numbers (gaps closed)."""
+    flat = flat_states(answer)
     states: dict[tuple[str, str], AbstractState] = {}
-    for s in answer.states:
+    for s in flat:
         states.setdefault((s.actor, s.name), AbstractState(
             name=s.name, actor=s.actor, all_of=[parse_call(c, specs, actors) for c in s.holds]))
     stages: list[Stage] = []
-    for k in sorted({s.stage for s in answer.states}):
-        refs = list(dict.fromkeys((s.actor, s.name) for s in answer.states if s.stage == k))
+    for k in sorted({s.stage for s in flat}):
+        refs = list(dict.fromkeys((s.actor, s.name) for s in flat if s.stage == k))
         stage = Stage(conditions=[StateRef(actor=a, state=n) for a, n in refs])
         if not stages or stage != stages[-1]:  # a repeated stage adds nothing
             stages.append(stage)

@@ -55,7 +55,6 @@ from regen.driving.llm_answers import (
     RoleOptions,
     chosen_roles,
     fsm_schema,
-    max_states,
     role_options,
     role_schema,
 )
@@ -138,8 +137,7 @@ def _actor_line(r: RoleChoice) -> str:
 def fsm_prompt(narrative: str, roles: list[RoleChoice], template: EgoTemplate) -> str:
     preds = [f"{s.signature()}: {s.doc}" for s in available(roles, template)]
     return render(PKG, "ground_fsm", narrative=narrative, ego=template.description,
-                  actors=[_actor_line(r) for r in roles], predicates=preds,
-                  min_states=len(roles) + 2, max_states=max_states(len(roles) + 1))
+                  actors=[_actor_line(r) for r in roles], predicates=preds)
 
 
 class _Grounding:

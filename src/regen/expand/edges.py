@@ -34,6 +34,7 @@ class Judged:
     accepted: dict[str, str] = field(default_factory=dict)  # candidate -> reason
     rejected: dict[str, str] = field(default_factory=dict)  # candidate -> reason
     unknown: dict[str, str] = field(default_factory=dict)  # names the model gave that were not offered
+    ruled: dict[str, str] = field(default_factory=dict)  # candidate -> why a rule rejected it unasked
     # accepted candidate -> (who matched the model's name to it: 'database' for an alias, 'rule'
     # for a similarity guess, and how)
     matched: dict[str, tuple[str, str]] = field(default_factory=dict)
@@ -206,6 +207,18 @@ def property_options(db: AssetDatabase, asset: str, proposed: dict[str, list[str
     return options
 
 
+def named_states(db: AssetDatabase, asset: str, event: str,
+                 options: dict[str, tuple[str, list[str]]]) -> dict[str, tuple[str, str]]:
+    """Property -> (state, phrase) for the offered properties whose state ``event``'s words name
+    ("the light turns red": light_state = turns_red), so the judge cannot contradict the event."""
+    out = {}
+    for p, (_, values) in options.items():
+        named = db.named_state(asset, p, event)
+        if named is not None and named[0] in values:
+            out[p] = named
+    return out
+
+
 def property_choices(domain: str, asset: str, behavior: Behavior | None = None) -> Choices | None:
     """What the domain's simulator restricts of ``asset``'s properties when explaining
     ``behavior`` (``DomainBackend.property_choices``)."""
@@ -251,15 +264,23 @@ def _choice_models(options: dict[str, tuple[str, list[str]]], choices: Choices |
 
 def select_properties(llm: LLM, domain: str, chain: list[str], event: str, entity: str,
                       options: dict[str, tuple[str, list[str]]],
-                      choices: Choices | None = None) -> tuple[dict[str, Judged], str]:
+                      choices: Choices | None = None,
+                      named: dict[str, tuple[str, str]] | None = None) -> tuple[dict[str, Judged], str]:
     """For each property (name -> (description, candidate values)) the one value that supports
     the entity's role: the graph's binding choice, so exactly one per property that applies.
 
     The schema asks for the role sentence first and allows only offered values; with
     ``choices`` (the domain's dependent properties) only consistent combinations, so the model
     states what the entity does, then picks values that agree with each other. A property that
-    does not apply to the chosen key value (a stationary actor's speed) gets no value.
+    does not apply to the chosen key value (a stationary actor's speed) gets no value. A state
+    the event's words name (``named``, :func:`named_states`) is the property's only offer; the
+    values it rules out are kept in ``Judged.ruled`` with the phrase.
     """
+    ruled: dict[str, dict[str, str]] = {}
+    for p, (state, phrase) in (named or {}).items():
+        desc, values = options[p]
+        ruled[p] = {v: f'the event says "{phrase}", which names {p} = {state}' for v in values if v != state}
+        options = {**options, p: (desc, [state])}
     variants = _choice_models(options, choices)
     choice_type = variants[0] if len(variants) == 1 else Union[tuple(variants)]  # noqa: UP007
     schema = create_model("PropertyValues", __base__=Answer, role=(str, ...), choice=(choice_type, ...))
@@ -290,6 +311,7 @@ def select_properties(llm: LLM, domain: str, chain: list[str], event: str, entit
         why = (f"not chosen by the model (it chose {chosen})" if chosen is not None
                else f"does not apply with {key} = {picked.get(key)}")
         j.rejected.update({v: why for v in values if v != chosen})
+        j.ruled.update(ruled.get(p, {}))
         out[p] = j
     return out, got.call_id
 
@@ -332,6 +354,7 @@ def judge_candidates(llm: LLM, kind: str, source: str, candidates: list[str], *,
         event = (context or [entity])[0]
         behavior = Behavior(text=context[-1], domain=domain) if context else None
         judged, _ = select_properties(llm, domain, context or [entity], event, entity, options,
-                                      property_choices(domain, entity, behavior))
+                                      property_choices(domain, entity, behavior),
+                                      named_states(db, entity, event, options))
         return {f"{p}: {v}" for p, j in judged.items() for v in j.accepted}
     raise ValueError(f"unknown edge kind {kind!r}; use event->event, entity->event or property->entity")

@@ -273,7 +273,8 @@ class Expander:
         options = edges.property_options(self.db, asset, proposed)
         judged, sid = (edges.select_properties(self.llm, graph.behavior.domain, chain, ev.label, asset,
                                                options, edges.property_choices(graph.behavior.domain, asset,
-                                                                               graph.behavior))
+                                                                               graph.behavior),
+                                               edges.named_states(self.db, asset, ev.label, options))
                        if options else ({}, None))
         return ent.id, proposed, pid, judged
 
@@ -292,6 +293,9 @@ class Expander:
                 for value, reason in jd.rejected.items():
                     self._prop_node(graph, eid, prop, value, "rejected", proposed, pid,
                                     Decision(action="rejected", by="model", call_id=jd.call_id, reason=reason))
+                for value, reason in jd.ruled.items():
+                    self._prop_node(graph, eid, prop, value, "rejected", proposed, pid,
+                                    Decision(action="rejected", by="rule", reason=reason))
                 for value, reason in jd.unknown.items():
                     self._prop_node(graph, eid, prop, value, "rejected", proposed, pid,
                                     Decision(action="rejected", by="database", call_id=jd.call_id, reason=reason))

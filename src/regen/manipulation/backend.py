@@ -25,11 +25,13 @@ class ManipulationBackend(DomainBackend):
     wording = Wording(
         expert="household robot manipulation and home environments",
         situation="home",
-        # a worked example: without one the offline 1.5B model proposes the robot's own programming
-        cause_rule=("Each cause must be a situation in the home, or a need of a person, pet or plant, "
-                    "that makes the robot do this, for example \"the pet is waiting outside to come in\" "
-                    "or \"the room is stuffy and needs fresh air\". Never the robot's own command, "
-                    "instruction, programming, sensors or mechanics."),
+        # who needs it and why, with a worked example of another behavior: without one the offline
+        # 1.5B model proposes the robot's own programming, and it copies an example of the same
+        # behavior into every other behavior
+        cause_rule=("Each cause says who in the home needs this done and why: a person (a child, a "
+                    "parent, a guest, an elderly person), a pet or a plant; for example, for \"the robot "
+                    "puts the cup in the sink\": \"the cup is dirty after breakfast\". Never the robot's "
+                    "own command, instruction, programming, sensors or mechanics."),
         value_hint='relative to the robot, the table or furniture, e.g. "on the table left of the robot"',
         judge_examples=(
             ("the robot puts the cup in the sink", "the cup is dirty after breakfast", "yes",
