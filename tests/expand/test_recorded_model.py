@@ -72,9 +72,13 @@ def test_expansion_replays_recorded_offline_model_answers(name: str) -> None:
         # faucet" is rejected by the judge, with its reason on the graph
         assert accepted == ["a child needs to wash their hands"] and len(paths) == 1
     if name == "expand_manipulation_lamp":
-        assert set(accepted) == {"a child needs to turn on the lamp to see the TV",
-                                 "a parent needs to turn on the lamp to read the newspaper"}
+        assert set(accepted) == {"a child needs to turn on the lamp to read a book",
+                                 "a guest needs to turn on the lamp to watch a movie"}
         assert len(paths) == 2
+        # the graph took a desk lamp for the task's lamp: it starts off, as the task needs
+        power = {n.value for n in graph.nodes.values() if n.kind == "property" and n.property == "power"
+                 and n.status == "accepted"}
+        assert power == {"off"}
     if name == "expand_driving":
         # the event's words name the light's state: it turns red as the ego comes near
         light = next(n for n in graph.nodes.values() if n.kind == "property" and n.property == "light_state"

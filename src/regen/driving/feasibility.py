@@ -122,6 +122,34 @@ def _ego_never(call: PredicateCall, t: EgoTemplate) -> str | None:
     return None
 
 
+_LOWER = {"moving": ("min_speed", 0.5), "steady": ("min_speed", 2.0)}  # speed above
+_UPPER = {"slower_than": ("max_speed", 5.0), "stopped": ("max_speed", 0.3)}  # speed below
+
+
+def contradiction(calls: list[PredicateCall]) -> str | None:
+    """Why the calls of one state can never hold at one instant (a call and its negation, a
+    speed above a bound and below a lower one, close within less than far apart), or None."""
+    seen = {(c.name, tuple(c.args), tuple(sorted(c.params.items())), c.negate): c for c in calls}
+    for (name, args, params, neg), c in seen.items():
+        if (name, args, params, not neg) in seen:
+            return f"{c} and its negation cannot hold at once"
+    pos = [c for c in calls if not c.negate]
+    for lo in pos:
+        for hi in pos:
+            if lo.name in _LOWER and hi.name in _UPPER and lo.args == hi.args:
+                v_lo = float(lo.params.get(*_LOWER[lo.name]))
+                v_hi = float(hi.params.get(*_UPPER[hi.name]))
+                if v_lo >= v_hi:
+                    return (f"{lo} (faster than {v_lo:g} m/s) and {hi} (slower than {v_hi:g} m/s) "
+                            "cannot hold at once")
+            if (lo.name == "close_to" and hi.name == "far_from"
+                    and sorted(lo.args) == sorted(hi.args)):
+                near, far = float(lo.params.get("distance", 10.0)), float(hi.params.get("distance", 30.0))
+                if far >= near:
+                    return f"{lo} (within {near:g} m) and {hi} (more than {far:g} m) cannot hold at once"
+    return None
+
+
 def available(roles: list[RoleChoice], template: EgoTemplate) -> list[PredicateSpec]:
     """The menu without predicates that can hold for no actor of this scenario (no siren
     predicate without a siren), so the prompt stays short and the choice easier."""
@@ -145,4 +173,4 @@ def available(roles: list[RoleChoice], template: EgoTemplate) -> list[PredicateS
     return out
 
 
-__all__ = ["HIDDEN_PREDICATES", "available", "light_values", "menu", "never_holds", "top_speed"]
+__all__ = ["HIDDEN_PREDICATES", "available", "contradiction", "light_values", "menu", "never_holds", "top_speed"]

@@ -35,7 +35,7 @@ from regen.core.base import Answer
 from regen.core.scenario import FSM, AbstractState, PredicateCall, Stage, StateRef
 from regen.driving.actors import RoleChoice
 from regen.driving.ego import EgoTemplate
-from regen.driving.feasibility import available, light_values, never_holds, top_speed
+from regen.driving.feasibility import available, contradiction, light_values, never_holds, top_speed
 from regen.driving.ground import choose_map
 from regen.driving.primitives import get, is_state_only
 from regen.driving.primitives.base import SPEED_CLASSES
@@ -334,14 +334,18 @@ def fsm_schema(roles: list[RoleChoice], template: EgoTemplate) -> type[Answer]:
             return v
 
         def _calls(self: Any) -> Any:
-            problems = []
+            problems, calls = [], []
             for text in self.holds:
                 call = parse_call(text, specs, actors)
+                calls.append(call)
                 if actor not in call.args:
                     problems.append(f"{text!r} does not name {actor}")
                 why = never_holds(call, by_name, template)
                 if why:
                     problems.append(why)
+            clash = contradiction(calls)
+            if clash:
+                problems.append(clash)
             if problems:
                 raise ValueError(f"state {self.name!r} of {actor}: " + "; ".join(problems)
                                  + "; choose predicates that can hold")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from regen.assets.database import name_words
 from regen.core.behavior import Behavior
 from regen.core.graph import CausePath
 from regen.core.scenario import Scenario
@@ -78,14 +79,16 @@ class ManipulationBackend(DomainBackend):
     def property_choices(self, asset: str, behavior: Behavior | None = None
                          ) -> tuple[str | None, dict[str | None, dict[str, list[str]]]] | None:
         """The object the task acts on starts as the task needs it: a lamp to switch on is off,
-        a door to open is closed (its start fraction); the model does not choose that."""
+        a door to open is closed (its start fraction); the model does not choose that. A kind
+        of that object (a desk lamp for the lamp) is taken for it too: the graph picks one for
+        the task's words more often than not."""
         if behavior is None:
             return None
         try:
             task = resolve(behavior.reward, behavior.text)
         except ConfigError:
             return None
-        if task.asset != asset:
+        if task.asset != asset and not set(name_words(task.asset)) <= set(name_words(asset)):
             return None
         db = self.database()
         fixed: dict[str, list[str]] = {}

@@ -26,15 +26,31 @@ KEYFRAMES_FILE = "strip.png"
 GIF_FRAME_MS = 150  # display time of each GIF frame [ms]
 HEADER_H = 28  # band above the strip for the narrative and the verdict [px]
 CAMERA = {"target": (0.6, 0.15, 0.3), "distance": 2.6, "yaw": -62.0, "pitch": -48.0}  # [m], [deg]
+FIT = 1.1  # camera distance per metre of the scene's larger horizontal extent
 
 
-def _camera(p, client: int, steep: bool = False) -> tuple[list[float], list[float]]:
+def _camera(p, client: int, steep: bool = False,
+            extent: tuple[tuple[float, ...], tuple[float, ...]] | None = None) -> tuple[list[float], list[float]]:
     # behind a wall (door, window) objects are only visible from a steep camera
     pitch = -68.0 if steep else CAMERA["pitch"]
-    view = p.computeViewMatrixFromYawPitchRoll(CAMERA["target"], CAMERA["distance"], CAMERA["yaw"],
+    target, distance = CAMERA["target"], CAMERA["distance"]
+    if extent is not None:  # every body in view: a person outside the door as well as the robot
+        lo, hi = extent
+        target = ((lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, CAMERA["target"][2])
+        distance = max(distance, FIT * max(hi[0] - lo[0], hi[1] - lo[1]))
+    view = p.computeViewMatrixFromYawPitchRoll(target, distance, CAMERA["yaw"],
                                                pitch, 0, 2, physicsClientId=client)
     proj = p.computeProjectionMatrixFOV(55, WIDTH / HEIGHT, 0.05, 10.0, physicsClientId=client)
     return view, proj
+
+
+def _extent(scene: Scene) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """The horizontal box around the robot, the objects and the furniture (walls left out: they
+    span the room)."""
+    boxes = [scene.aabb(n) for n, b in scene.bodies.items() if not (b.spec is not None and b.spec.wall)]
+    lo = tuple(min(bx.lo[k] for bx in boxes) for k in range(3))
+    hi = tuple(max(bx.hi[k] for bx in boxes) for k in range(3))
+    return lo, hi
 
 
 def _project(point: tuple[float, float, float], view: list[float], proj: list[float]) -> tuple[int, int] | None:
@@ -87,7 +103,8 @@ def render_frames(scenario: Scenario, trace: Trace, indices: list[int]) -> list[
                 box = scene.aabb(name, -1 if b.kind == "furniture" else None)
                 centre = (np.asarray(box.lo) + np.asarray(box.hi)) / 2
                 offsets[name] = np.asarray(pos) - centre
-        view, proj = _camera(p, c, any(b.spec is not None and b.spec.wall for b in scene.bodies.values()))
+        view, proj = _camera(p, c, any(b.spec is not None and b.spec.wall for b in scene.bodies.values()),
+                             _extent(scene))
         for i in indices:
             _pose_at(scene, trace, i, offsets)
             if scenario.world.get("behavior") in ("turn_on_lamp",):
