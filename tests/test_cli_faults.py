@@ -127,7 +127,9 @@ def test_runs_show_corrupt_verdict_is_shown_as_unreadable(tmp_path: Path, verdic
                                       b'{"status": "caf\xe9"}'])
 def test_runs_show_corrupt_run_json(tmp_path: Path, manifest: str | bytes) -> None:
     run = _make_run(tmp_path, "run", manifest=manifest)
-    _one_line_error(_run("runs", "show", str(run)), "run.json", "unreadable", "--fresh")
+    # the advice names the command that takes --fresh: `runs show` does not
+    _one_line_error(_run("runs", "show", str(run)), "run.json", "unreadable", "`regen generate`",
+                    f"--out {run} --fresh")
 
 
 def test_runs_show_missing_run_json(tmp_path: Path) -> None:
@@ -136,7 +138,7 @@ def test_runs_show_missing_run_json(tmp_path: Path) -> None:
 
 
 def test_runs_show_hostile_text_in_run_and_verdict(tmp_path: Path) -> None:
-    hostile = "x [/] \ud83d \x07 \x1b[31m y"
+    hostile = "x [/] \ud83d \x07 \x1b[31m \u202egnp.exe\u202c y"  # a right-to-left override too
     run = _make_run(tmp_path, "run", started="[/]", status="[bold]done",
                     behavior={"text": hostile, "domain": "driving"},
                     verdict=json.dumps({"feasible": False, "status": "fsm_[/]incomplete",
@@ -144,6 +146,7 @@ def test_runs_show_hostile_text_in_run_and_verdict(tmp_path: Path) -> None:
     out = _clean_exit(_run("runs", "show", str(run), columns=200))
     assert "x [/]" in out and "[/]" in out and "[bold]done" in out
     assert "\x07" not in out and "\x1b" not in out
+    assert "\u202e" not in out and "\u202c" not in out and "gnp.exe" in out
     out.encode("utf-8")
 
 

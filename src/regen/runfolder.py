@@ -328,8 +328,8 @@ class RunFolder:
         if got.problem == "missing":
             raise RunError(f"{self.path} is not a run folder (no run.json)")
         if not got.ok:
-            raise RunError(f"{self / self.MANIFEST} is {got.problem}; rerun with --fresh to start "
-                           "over (the model cache is kept)")
+            raise RunError(f"{self / self.MANIFEST} is {got.problem}; run `regen generate` again with "
+                           f"--out {self.path} --fresh to start over (the model cache is kept)")
         return got.value
 
     def write_manifest(self, manifest: RunManifest) -> None:

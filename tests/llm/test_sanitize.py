@@ -30,6 +30,10 @@ def test_clean_text_replaces_surrogates_and_drops_controls() -> None:
     assert clean_text("a\ud800b\udfffc") == "a\ufffdb\ufffdc"
     assert clean_text("ok \U0001f600") == "ok \U0001f600"  # a real astral character stays
     assert clean_text('{"a":\r\n\t"b\x00\x1b[1m\x7f\x9f"}') == '{"a":\r\n\t"b[1m"}'
+    # bidi overrides and isolates reorder what a terminal or page shows: dropped; a zero-width
+    # joiner inside an emoji sequence is text and stays
+    assert clean_text("a\u202eexe.txt\u202c \u2066b\u2069") == "aexe.txt b"
+    assert clean_text("\U0001f468\u200d\U0001f469") == "\U0001f468\u200d\U0001f469"
 
 
 def test_clean_value_cleans_and_cuts_every_string_and_key() -> None:

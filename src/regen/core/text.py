@@ -1,7 +1,9 @@
 """Text hygiene, in one place: the characters no output of the toolkit may carry.
 
-C0 controls but tab, newline and carriage return; DEL and C1 controls; lone surrogates (half an
-emoji from a ``\\ud83d`` JSON escape). HTML forbids the controls, terminals obey them (moving the
+C0 controls but tab, newline and carriage return; DEL and C1 controls; the bidirectional
+embedding, override and isolate controls (U+202A-U+202E, U+2066-U+2069), which reorder what a
+terminal or a page shows ("Trojan Source"); lone surrogates (half an emoji from a ``\\ud83d``
+JSON escape). HTML forbids the controls, terminals obey them (moving the
 cursor, clearing the screen), and a lone surrogate cannot be written as UTF-8 at all: one in a
 narrative would cost a whole page or file.
 """
@@ -14,7 +16,8 @@ from typing import Any
 
 CONTROL = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f]")  # Cc but tab, newline, carriage return
 SURROGATE = re.compile("[\ud800-\udfff]")  # in a str these are always unpaired
-UNSAFE = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f\ud800-\udfff]")  # CONTROL or SURROGATE
+BIDI = re.compile("[\u202a-\u202e\u2066-\u2069]")  # bidi embeddings, overrides and isolates
+UNSAFE = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f\u202a-\u202e\u2066-\u2069\ud800-\udfff]")  # any of the three
 
 
 def clean(text: str) -> str:
