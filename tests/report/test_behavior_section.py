@@ -193,3 +193,19 @@ def test_no_tests_folder_no_section(make_run):
     assert load_run(run).tests is None
     html = write_report(run).read_text(encoding="utf-8")
     assert 'id="tests"' not in html and "Behavior tests" not in html
+
+
+def test_a_folder_of_chains_has_one_rate_row_per_behavior(make_run):
+    # hand-written chains explain several behaviors: each gets its own row, its own counts
+    from report_runs import make_scenario
+
+    run = make_run([{"scenario": make_scenario(1)},
+                    {"scenario": make_scenario(2, behavior_text="the ego-vehicle changes lanes")},
+                    {"scenario": make_scenario(3, behavior_text="the ego-vehicle changes lanes")}])
+    write_json(run / "tests" / "idm" / "tests.json", {"policy": "idm", "oracle": "fsm", "cases": [
+        _case(scenario="01-cause-1", status="failed", collision=True, min_ttc=0.0),
+        _case(scenario="02-cause-2"), _case(scenario="03-cause-3", status="failed", collision=True)]})
+    rates = load_run(run).tests.rates
+    rows = {r.label: r.cells for r in rates if r.kind == "behavior"}
+    assert rows == {"the ego-vehicle stops abruptly": [(1, 1)], "the ego-vehicle changes lanes": [(1, 2)]}
+    assert [r.kind for r in rates] == ["behavior", "behavior", "cause", "cause", "cause"]

@@ -39,6 +39,7 @@ class CaseRow:
     anchor: str | None = None  # the scenario's section in the page
     number: int | None = None  # the scenario's number in the page
     cause_label: str = ""  # the scenario's root cause (its folder name when unknown)
+    behavior_label: str = ""  # the behavior the scenario explains (the run's when unknown)
 
     @property
     def ran(self) -> bool:
@@ -162,6 +163,7 @@ def load_tests(run_dir: Path, scenarios: list, behavior: str) -> BehaviorTests |
     if not behavior:  # no run.json: the scenarios carry the behavior too
         behavior = next((sv.scenario.behavior.text for sv in scenarios if sv.scenario), "")
     out = BehaviorTests(policies=[read_policy(run_dir, name, got) for name, got in found.items()])
+    behaviors: dict[str, RateRow] = {}  # a folder of hand-written chains explains several
     causes: dict[str, RateRow] = {}
     for pt in out.policies:
         for c in pt.cases:
@@ -171,11 +173,16 @@ def load_tests(run_dir: Path, scenarios: list, behavior: str) -> BehaviorTests |
                 c.cause_label = sv.chain[0] if sv.chain else sv.folder
             else:
                 c.cause_label = c.scenario
+            explained = sv.scenario.behavior.text if sv is not None and sv.scenario else ""
+            c.behavior_label = explained or behavior or "the run's behavior"
+            behaviors.setdefault(c.behavior_label, RateRow(c.behavior_label, "behavior"))
             causes.setdefault(c.cause_label, RateRow(c.cause_label, "cause", c.anchor))
-    rows = [RateRow(behavior or "the run's behavior", "behavior"), *causes.values()]
+    rows = [*(behaviors.values() or [RateRow(behavior or "the run's behavior", "behavior")]),
+            *causes.values()]
     for row in rows:
         for pt in out.policies:
-            mine = [c for c in pt.ran if row.kind == "behavior" or c.cause_label == row.label]
+            mine = [c for c in pt.ran
+                    if (c.behavior_label if row.kind == "behavior" else c.cause_label) == row.label]
             row.cells.append((sum(1 for c in mine if c.collision), len(mine)))
     out.rates = rows
     return out
