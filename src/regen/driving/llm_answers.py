@@ -230,22 +230,17 @@ def call_pattern(specs: list[PredicateSpec], actors: list[str],
                     continue
                 per.append((", ".join(re.escape(a) for a in c), c[0]))
         for args, first in per:
+            if s.name == "light_is":  # the value is what the state is about: always written
+                shown = _shown(first, roles, template)
+                if shown:  # (a light that shows none of them has no such call)
+                    alts.append(rf"{s.name}\({args}, (value=({'|'.join(shown)}))\)")
+                continue
             params = []
             for k, default in s.params.items():
-                if s.name == "light_is" and k == "value":
-                    shown = _shown(first, roles, template)
-                    if not shown:
-                        params = None
-                        break
-                    params.append(f"{k}=({'|'.join(shown)})")
-                elif not isinstance(default, str):
+                if not isinstance(default, str):
                     top = _top(first, roles, template) if k == "min_speed" else None
                     params.append(f"{k}={below(top) if top is not None else num}")
-            if params is None:  # a light that shows none of the values
-                continue
             extra = f"(, ({'|'.join(params)}))?" if params else ""
-            if s.name == "light_is":  # the value is what the state is about: always written
-                extra = f", ({'|'.join(params)})"
             alts.append(rf"{s.name}\({args}{extra}\)")
     return "^(not )?(" + "|".join(alts) + ")$"
 
