@@ -73,6 +73,11 @@ def test_ctrl_c_at_each_stage_stops_cleanly_and_the_rerun_resumes(tmp_path, even
     assert proc.returncode == 130, err
     assert "interrupted" in err and "run the same command again to resume" in err and "Traceback" not in err
     assert _manifest(run)["status"] == "interrupted"
+    if event == "simulating":  # the scenario in the simulator was finished and kept, not unwound
+        events = [json.loads(line) for line in (run / "events.jsonl").read_text().splitlines()]
+        started = [e["name"] for e in events if e.get("event") == "simulating"]
+        assert started and all((run / "scenarios" / n / "verdict.json").is_file() for n in started)
+        assert "finishing the current scenario" in err
     done = _finish(run)
     assert done.returncode == 0, done.stderr
     assert _manifest(run)["status"] == "done" and (run / "report.html").exists()

@@ -37,6 +37,7 @@ from regen.domains import DomainBackend
 from regen.errors import LLMError, MalformedAnswerError, RegenError, UngroundableError
 from regen.expand.expansion import expand
 from regen.expand.run import save_graph
+from regen.interrupts import Interrupts
 from regen.llm.client import LLM
 from regen.runfolder import (
     RunFolder,
@@ -280,48 +281,15 @@ def generate(behavior: Behavior, out: Path, *, settings: RunSettings | None = No
         run.unlock()
 
 
-class _Interrupts:
-    """Ctrl-C that is never lost: Python raises KeyboardInterrupt wherever the main thread is,
-    and one that lands in a finalizer (simulators run many generators) is only printed as
-    'Exception ignored'. The handler also sets a flag, and the pipeline checks it between steps."""
-
-    def __init__(self) -> None:
-        self.seen = False
-        self._old: Any = None
-
-    def _handler(self, signum: int, frame: Any) -> None:
-        self.seen = True
-        raise KeyboardInterrupt
-
-    def __enter__(self) -> _Interrupts:
-        import signal
-        import threading
-
-        if threading.current_thread() is threading.main_thread() and \
-                signal.getsignal(signal.SIGINT) is signal.default_int_handler:
-            self._old = signal.signal(signal.SIGINT, self._handler)
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        import signal
-
-        if self._old is not None:
-            signal.signal(signal.SIGINT, self._old)
-
-    def check(self) -> None:
-        if self.seen:
-            raise KeyboardInterrupt
-
-
 def _run(run: RunFolder, manifest: RunManifest, backend: DomainBackend, settings: RunSettings,
          llm: LLM | None, replay: bool, on_event: Callable[[Event], None] | None) -> RunResult:
-    with _Interrupts() as interrupts:
+    with Interrupts() as interrupts:
         return _stages(run, manifest, backend, settings, llm, replay, on_event, interrupts)
 
 
 def _stages(run: RunFolder, manifest: RunManifest, backend: DomainBackend, settings: RunSettings,
             llm: LLM | None, replay: bool, on_event: Callable[[Event], None] | None,
-            interrupts: _Interrupts) -> RunResult:
+            interrupts: Interrupts) -> RunResult:
     run.write_manifest(manifest)
     started = time.perf_counter()
     events = open(run / run.EVENTS, "a", encoding="utf-8")
@@ -408,8 +376,9 @@ def _stages(run: RunFolder, manifest: RunManifest, backend: DomainBackend, setti
         else:
             for name in pending:
                 emit("simulating", name=name)
-                _collect(outcomes, name, dirs[name], simulate_stage(behavior.domain, dirs[name], settings.pictures),
-                         emit)
+                with interrupts.deferred():
+                    done = simulate_stage(behavior.domain, dirs[name], settings.pictures)
+                _collect(outcomes, name, dirs[name], done, emit)
                 interrupts.check()
         timed("simulate", t0)
         interrupts.check()
