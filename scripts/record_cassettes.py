@@ -10,29 +10,20 @@ from __future__ import annotations
 
 import argparse
 import shutil
+import sys
 import tempfile
 import time
 from pathlib import Path
 
 from regen.core.behavior import Behavior
-from regen.expand import Limits, expand
+from regen.expand import expand
 from regen.llm import LLM
 from regen.llm.cache import CallCache
 
 OUT = Path(__file__).resolve().parents[1] / "tests" / "data" / "cassettes"
+sys.path.insert(0, str(OUT.parents[1] / "support"))  # the table the replay tests read too
+from cassette_cases import EXPANSIONS  # noqa: E402
 
-EXPANSIONS = {
-    "expand_driving": (Behavior(text="the ego-vehicle stops abruptly while driving forward", domain="driving"),
-                       Limits(max_depth=1, max_causes=3, max_entities=3)),
-    "expand_manipulation": (Behavior(text="the robot opens the door", domain="manipulation", reward="open_door"),
-                            Limits(max_depth=1, max_causes=3, max_entities=3)),
-    "expand_manipulation_faucet": (Behavior(text="the robot turns on the faucet", domain="manipulation",
-                                            reward="adjust_faucet"),
-                                   Limits(max_depth=1, max_causes=3, max_entities=3)),
-    "expand_manipulation_lamp": (Behavior(text="the robot turns on the lamp", domain="manipulation",
-                                          reward="turn_on_lamp"),
-                                 Limits(max_depth=1, max_causes=3, max_entities=3)),
-}
 GENERATE = ("generate_driving", Behavior(text="the ego-vehicle stops abruptly while driving forward",
                                          domain="driving"))
 

@@ -6,8 +6,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from cassette_cases import EXPANSIONS
 
-from regen.core.behavior import Behavior
 from regen.core.graph import ScenarioGraph
 from regen.domains import database as domain_database
 from regen.expand import Limits, expand
@@ -16,18 +16,7 @@ from regen.llm.cache import CallCache
 
 CASSETTES = Path(__file__).resolve().parents[1] / "data" / "cassettes"
 
-CASES = {
-    "expand_driving": (Behavior(text="the ego-vehicle stops abruptly while driving forward", domain="driving"),
-                       Limits(max_depth=1, max_causes=3, max_entities=3)),
-    "expand_manipulation": (Behavior(text="the robot opens the door", domain="manipulation", reward="open_door"),
-                            Limits(max_depth=1, max_causes=3, max_entities=3)),
-    "expand_manipulation_faucet": (Behavior(text="the robot turns on the faucet", domain="manipulation",
-                                            reward="adjust_faucet"),
-                                   Limits(max_depth=1, max_causes=3, max_entities=3)),
-    "expand_manipulation_lamp": (Behavior(text="the robot turns on the lamp", domain="manipulation",
-                                          reward="turn_on_lamp"),
-                                 Limits(max_depth=1, max_causes=3, max_entities=3)),
-}
+CASES = EXPANSIONS  # recorded by scripts/record_cassettes.py from the same table
 # words of the robot's own command, programming, sensing or mechanics: never an accepted cause
 MECHANICAL = ("programmed", "commanded", "instructed", "the robot's", "robot detects", "robot senses")
 
