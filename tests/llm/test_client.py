@@ -11,6 +11,7 @@ from regen.core.base import Answer
 from regen.errors import (
     CacheCorruptedError,
     CacheMissError,
+    ConfigError,
     MalformedAnswerError,
     UnknownProviderError,
 )
@@ -117,3 +118,12 @@ def test_map_serializes_a_non_concurrent_provider() -> None:
     llm = LLM(prov, concurrency=4)
     llm.map(lambda q: llm.structured(q, Causes), ["a", "b", "c"])
     assert prov.peak == 1
+
+
+def test_options_for_a_provider_object_are_refused_not_ignored() -> None:
+    # a timeout given next to a built provider used to be dropped without a word
+    with pytest.raises(ConfigError, match=r"^timeout: a provider object is already built; pass these to its"):
+        LLM(QueuedProvider([]), timeout=5.0)
+    with pytest.raises(ConfigError, match=r"^timeout, base_url: "):
+        LLM(QueuedProvider([]), timeout=5.0, base_url="http://127.0.0.1:1")
+    LLM(QueuedProvider([]))  # nothing to apply: fine

@@ -13,7 +13,7 @@ from typing import Any, Generic, TypeVar
 
 from pydantic import BaseModel, ValidationError
 
-from regen.errors import CacheMissError, MalformedAnswerError, ProviderResponseError
+from regen.errors import CacheMissError, ConfigError, MalformedAnswerError, ProviderResponseError
 from regen.llm.base import Completion, Message, Provider, Sampling
 from regen.llm.cache import CallCache, cache_key
 from regen.llm.json_extract import extract_json
@@ -111,6 +111,10 @@ class LLM:
             if timeout is not None:
                 provider_options["timeout"] = timeout
             provider = get_provider(provider, **provider_options)
+        elif timeout is not None or provider_options:
+            given = ", ".join(["timeout"] * (timeout is not None) + sorted(provider_options))
+            raise ConfigError(f"{given}: a provider object is already built; pass these to its "
+                              "constructor (LLM applies them only to a provider it builds from a name)")
         self.provider = provider
         self.cache = cache if isinstance(cache, CallCache) else CallCache(cache)
         self.replay = replay
