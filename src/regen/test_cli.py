@@ -79,17 +79,22 @@ def test_command(
         console.print(escape(clean(line)))
     console.print(f"{s['passed']}/{s['tests']} passed, {s['skipped']} skipped; {report.collision_line()}")
     console.print(f"wrote {escape(str(files['tests']))} and {escape(str(files['junit']))}")
-    console.print(_rerender(run_dir))
+    console.print(_rerender(run_dir, dest))
     if s["failed"]:
         raise typer.Exit(code=1)
 
 
-def _rerender(run_dir: Path) -> str:
-    """Rewrite RUN_DIR/report.html so it shows the tests; the terminal line saying where it is."""
+def _rerender(run_dir: Path, dest: Path) -> str:
+    """Rewrite RUN_DIR/report.html so it shows the tests; the terminal line saying where it is
+    (and that tests written elsewhere with --out are not in it)."""
     from regen.report import write_report as write_run_report
+    from regen.runfolder import RunFolder
 
+    inside = Path(dest).resolve().parent == (Path(run_dir) / RunFolder.TESTS).resolve()
+    note = "" if inside else (f" (it shows the tests under {escape(str(Path(run_dir) / RunFolder.TESTS))} "
+                              "only; these are not in it)")
     try:
-        return f"report: {escape(str(write_run_report(run_dir)))}"
+        return f"report: {escape(str(write_run_report(run_dir)))}{note}"
     except (RegenError, OSError) as exc:  # the tests are written; a report problem is only told
         return f"[yellow]report not updated:[/yellow] {escape(clean(str(exc)))}"
 

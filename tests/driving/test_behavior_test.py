@@ -168,8 +168,12 @@ def test_cli_with_a_users_policy_file(run_dir, tmp_path):
     assert res.exit_code == 0, res.output
     assert f"PASS  {CHILD}" in res.output and "collision rate: 0/1" in res.output
     assert (out / "junit.xml").is_file() and (out / "tests.json").is_file()
+    # written outside RUN/tests: the report cannot show them, and the terminal says so
+    assert "only; these are not in it)" in " ".join(res.output.split())
 
     res = CliRunner().invoke(make_app(), [str(run_dir), "--policy", "constant-speed", "--out", str(out)])
     assert res.exit_code == 1 and f"FAIL  {CHILD}  collision" in res.output
+    res = CliRunner().invoke(make_app(), [str(run_dir), "--policy", "constant-speed"])  # into RUN/tests
+    assert "report: " in res.output and "not in it" not in res.output
     res = CliRunner().invoke(make_app(), [str(run_dir), "--policy", "no-such-policy"])
     assert res.exit_code == 2 and "unknown policy" in res.output
