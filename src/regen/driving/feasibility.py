@@ -134,6 +134,12 @@ def contradiction(calls: list[PredicateCall]) -> str | None:
         if (name, args, params, not neg) in seen:
             return f"{c} and its negation cannot hold at once"
     pos = [c for c in calls if not c.negate]
+    for a in pos:  # one categorical value at a time: a light red and green at once
+        for b in pos:
+            if a.name == b.name and a.args == b.args:
+                for k, v in a.params.items():
+                    if isinstance(v, str) and k in b.params and b.params[k] != v:
+                        return f"{a} and {b} cannot hold at once"
     for lo in pos:
         for hi in pos:
             if lo.name in _LOWER and hi.name in _UPPER and lo.args == hi.args:

@@ -43,7 +43,7 @@ from regen.driving.actors import RoleChoice
 from regen.driving.assets import database as driving_database
 from regen.driving.ego import EgoTemplate, template_for
 from regen.driving.feasibility import available
-from regen.driving.fsm_rules import CAUSES_ADDED, with_cause_states
+from regen.driving.fsm_rules import CAUSES_ADDED, actor_states, with_cause_states
 from regen.driving.ground import (
     build_scenario,
     default_narrative,
@@ -134,10 +134,17 @@ def _actor_line(r: RoleChoice) -> str:
     return f"{r.name}: " + ", ".join(bits)
 
 
+def _cause_hint(r: RoleChoice, template: EgoTemplate) -> str:
+    """How the actor's part in the cause shows, in predicate calls: the last of the rules' cause
+    states (a light's red, not its green before; the rules add the earlier ones if missing)."""
+    cause = actor_states(r, template).cause
+    return " and ".join(map(str, cause[-1][1])) if cause else ""
+
+
 def fsm_prompt(narrative: str, roles: list[RoleChoice], template: EgoTemplate) -> str:
     preds = [f"{s.signature()}: {s.doc}" for s in available(roles, template)]
     return render(PKG, "ground_fsm", narrative=narrative, ego=template.description,
-                  actors=[_actor_line(r) for r in roles], predicates=preds)
+                  actors=[(_actor_line(r), _cause_hint(r, template)) for r in roles], predicates=preds)
 
 
 class _Grounding:
