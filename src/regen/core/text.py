@@ -14,10 +14,13 @@ import re
 from collections.abc import Callable
 from typing import Any
 
-CONTROL = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f]")  # Cc but tab, newline, carriage return
-SURROGATE = re.compile("[\ud800-\udfff]")  # in a str these are always unpaired
-BIDI = re.compile("[\u202a-\u202e\u2066-\u2069]")  # bidi embeddings, overrides and isolates
-UNSAFE = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f\u202a-\u202e\u2066-\u2069\ud800-\udfff]")  # any of the three
+_CONTROL = "\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f"  # Cc but tab, newline, carriage return
+_BIDI = "\u202a-\u202e\u2066-\u2069"  # bidi embeddings, overrides and isolates
+_SURROGATE = "\ud800-\udfff"  # in a str these are always unpaired
+CONTROL = re.compile(f"[{_CONTROL}]")
+BIDI = re.compile(f"[{_BIDI}]")
+SURROGATE = re.compile(f"[{_SURROGATE}]")
+UNSAFE = re.compile(f"[{_CONTROL}{_BIDI}{_SURROGATE}]")  # any of the three
 
 
 def clean(text: str) -> str:

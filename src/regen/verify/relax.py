@@ -45,9 +45,10 @@ def relax_fsm(fsm: FSM, verdict: Verdict) -> tuple[FSM, str] | None:
     return FSM(states=fsm.states, stages=stages), note
 
 
-def drop_never_held(scenario: Scenario, fsm: FSM, verdict: Verdict) -> tuple[FSM, str] | None:
-    """Drop from the first unmet stage the model's states of other actors (not cause states)
-    that never held after the previous stage; None when there is none."""
+def drop_never_held(scenario: Scenario, verdict: Verdict) -> tuple[FSM, str] | None:
+    """Drop from the first unmet stage of ``scenario``'s FSM the model's states of other actors
+    (not cause states) that never held after the previous stage; None when there is none."""
+    fsm = scenario.fsm
     k = verdict.first_unmet_stage
     if (k is None or verdict.status != "fsm_incomplete" or scenario.fsm_source == "rules"):
         return None
@@ -78,7 +79,7 @@ def verify_with_relaxation(scenario: Scenario, trace: Trace, *,
     for _ in range(max_relaxations):
         if verdict.feasible:
             break
-        relaxed = relax_fsm(scenario.fsm, verdict) or drop_never_held(scenario, scenario.fsm, verdict)
+        relaxed = relax_fsm(scenario.fsm, verdict) or drop_never_held(scenario, verdict)
         if relaxed is None:
             break
         fsm, note = relaxed
