@@ -2,7 +2,7 @@
 throughput, for the built-in policies on the hand-written driving chains.
 
 Test throughput is measured twice: per episode (program compiled, oracle included) and as
-``regen test`` runs it, :func:`regen.driving.behavior_test.run_tests` over a run folder holding
+``regen test`` runs it, :func:`regen.driving.testing.cases.run_tests` over a run folder holding
 the scenarios (tests per minute, with and without the GIF of each failure).
 
 Per scenario the Scenic program is compiled once (cached across policies and episodes, as
@@ -24,10 +24,10 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "driving"))
 from driving_chains import FEASIBLE  # noqa: E402  (the hand-written chains)
 
-from regen.driving.behavior_test import judge, run_tests  # noqa: E402
-from regen.driving.failure_gif import keep_failures  # noqa: E402
-from regen.driving.policies import BUILTIN, load_policy  # noqa: E402
-from regen.driving.policy_loop import prepare, run_policy  # noqa: E402
+from regen.driving.testing.cases import judge, run_tests  # noqa: E402
+from regen.driving.testing.failure_pictures import keep_failures  # noqa: E402
+from regen.driving.testing.loop import prepare, run_policy  # noqa: E402
+from regen.driving.testing.policies import BUILTIN, load_policy  # noqa: E402
 from regen.pipeline import run_path  # noqa: E402
 from regen.runfolder import RunFolder, ScenarioFolder  # noqa: E402
 

@@ -50,10 +50,10 @@ def _run(map_name: str, map_path: Path, seconds: float, dt: float = 0.05):
 def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         os.environ["REGEN_CACHE_DIR"] = str(Path(tmp) / "cache")
-        from regen.domains import ANIMATION, KEYFRAMES
-        from regen.driving.export_xosc import export_openscenario, validate_xosc
-        from regen.driving.maps import ensure_map
-        from regen.driving.render import render_scenario
+        from regen.contract import ANIMATION, KEYFRAMES
+        from regen.driving.export.openscenario import export_openscenario, validate_xosc
+        from regen.driving.render.scenario import render_scenario
+        from regen.driving.world.maps import ensure_map
 
         for map_name in ("straight", "four_way"):
             path = ensure_map(map_name)

@@ -89,7 +89,7 @@ def record_ground(llm_spec: str) -> None:
     """Ground the paths with the model; write the paths and the answers (two files)."""
     import json
 
-    from regen.driving.llm_ground import ground_with_model
+    from regen.driving.grounding.model import ground_with_model
 
     cache = CallCache(None)
     paths = ground_paths()

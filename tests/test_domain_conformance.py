@@ -16,7 +16,7 @@ import pytest
 from fake_expansion_model import ScriptedModel
 
 from regen import domains
-from regen.domains import ANIMATION, KEYFRAMES
+from regen.contract import ANIMATION, KEYFRAMES
 from regen.llm import LLM
 from regen.llm.testing import FunctionProvider
 from regen.pipeline import generate

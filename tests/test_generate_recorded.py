@@ -44,7 +44,7 @@ def test_recorded_main_job_verifies_distinct_causes_as_the_graph_chose_and_resum
         if n["kind"] == "property" and n["status"] == "accepted":
             ent = graph["nodes"][next(e["target"] for e in graph["edges"] if e["source"] == n["id"])]
             chosen.setdefault(ent["asset"] or ent["label"], {}).setdefault(n["property"], []).append(n["value"])
-    from regen.driving.ground import roles_of
+    from regen.driving.grounding.rules import roles_of
 
     sources = []
     for o in res.outcomes:

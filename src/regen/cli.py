@@ -401,7 +401,7 @@ _mount_eval()
 
 
 def _mount_test() -> None:
-    from regen.test_cli import test_command
+    from regen.harness.cli import test_command
 
     app.command("test", help="Run a driving policy through a run's verified scenarios: pass/fail, "
                              "collisions, tests.json and junit.xml.")(test_command)

@@ -1,175 +1,23 @@
-"""Simulation domains behind one contract, found through a registry (lazy imports).
+"""The registry of simulation domains: name -> backend class, imported on first use.
 
-A domain package owns everything that is particular to its simulator: its name, its asset
-database file, the wording the shared prompts use for it, its predicates, the files its
-``render``/``export`` write (returned as role -> path, and recorded in the run folder) and the
-captions the report shows for them. The shared packages (core, llm, expand, verify, assets,
-report, evaluation) name no domain; they ask the backend. A new domain is a package with a
-:class:`DomainBackend` subclass and one :func:`register` call; ``tests/test_domain_conformance.py``
-runs every registered domain through the whole pipeline the way Gymnasium's ``check_env`` does.
-
-Imports are lazy: the backend class is imported on first use, so a missing optional simulator
-is reported with its install command, not at import time.
+A domain is a package with a :class:`regen.contract.DomainBackend` subclass and one
+:func:`register` call here (or in the user's code). Imports are lazy, so a missing optional
+simulator is reported with its install command when the domain is used, not at import time;
+this module imports nothing of the contract or of any domain, so every layer may ask it.
 """
 
 from __future__ import annotations
 
 import importlib
-from abc import ABC, abstractmethod
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, ClassVar
+from typing import TYPE_CHECKING
 
 from regen.errors import ConfigError
 
 if TYPE_CHECKING:
     from regen.assets.database import AssetDatabase
+    from regen.contract import DomainBackend
     from regen.core.behavior import Behavior
-    from regen.core.graph import CausePath
-    from regen.core.scenario import Scenario
-    from regen.core.trace import Trace
-    from regen.core.verdict import Verdict
-    from regen.llm.client import LLM
-
-#: Well-known roles of the files ``render`` returns; the report shows them as pictures.
-ANIMATION = "animation"
-KEYFRAMES = "keyframes"
-
-
-#: The default of :attr:`Wording.mechanics`: causes in which the robot is ordered or programmed
-#: to act ("the robot is programmed to open doors", "a human asks the robot to ...").
-ROBOT_ORDERS: tuple[str, ...] = (
-    r"(?:^|\bthe\s+|\bthis\s+)robot\s+(?:is|was|gets|got|has\s+been|had\s+been)\s+(?:\w+ly\s+|just\s+)?"
-    r"(?:programmed|commanded|instructed|ordered|told|asked|scheduled|designed|configured|tasked)\b",
-    r"\b(?:asks?|asked|tells?|told|commands?|commanded|instructs?|instructed|orders?|ordered|programs?|"
-    r"programmed)\s+(?:the\s+)?robot\b",
-)
-
-
-@dataclass(frozen=True)
-class Wording:
-    """The domain's words in the shared expansion prompts (``regen/expand/prompts``) and in the
-    rules applied to the model's answers."""
-
-    expert: str  # system prompt: "You are an expert in <expert>."
-    situation: str  # "plausibly and directly cause the effect in a realistic <situation> situation"
-    cause_rule: str  # event proposal: what a cause must be (and must not be)
-    value_hint: str  # property proposal: how free values (locations) are phrased, with an example
-    #: edge judge: worked examples shown before each question, as (effect, candidate cause,
-    #: "yes" or "no", reason); a few short ones of the domain, none from the labeled edge set
-    judge_examples: tuple[tuple[str, str, str, str], ...] = ()
-    #: Regular expressions over the lower-cased cause text that mark a cause as a restatement of
-    #: the robot's own command, programming, sensors or mechanics rather than a context of the
-    #: world; expansion rejects such causes after the judge (``by="rule"``), unless the user
-    #: insisted on them. Searched with ``re.search``; the first match is quoted in the reason.
-    mechanics: tuple[str, ...] = ROBOT_ORDERS
-
-
-@dataclass(frozen=True)
-class ReportHints:
-    """What the report calls this domain's pictures and actors."""
-
-    animation: str = "animation of the run"
-    keyframes: str = "key frames (click for full size)"
-    robot: str = "robot"  # what the report calls the robot whose behavior is explained
-
-
-@dataclass
-class SimulationOutput:
-    trace: Trace
-    timings: dict[str, float] = field(default_factory=dict)  # stage -> wall seconds
-    files: dict[str, Path] = field(default_factory=dict)  # role -> path of a file the run wrote
-
-
-class DomainBackend(ABC):
-    """What a simulation domain provides to the pipeline.
-
-    Class attributes are the domain's declarations; methods are the stages the pipeline calls
-    (:mod:`regen.pipeline`), in order: ``ground`` -> ``simulate`` -> ``verify`` -> ``render`` ->
-    ``export``.
-    """
-
-    #: The domain's name, as users type it after ``--domain``.
-    name: ClassVar[str]
-    #: The asset database: (package, resource path inside it).
-    database_resource: ClassVar[tuple[str, str]]
-    #: The domain's words in the shared prompts.
-    wording: ClassVar[Wording]
-    #: Module that registers the domain's predicates when imported (None: shared ones only).
-    predicates_module: ClassVar[str | None] = None
-    #: Labeled edge-construction examples shipped with the domain (package, resource), if any.
-    edge_examples: ClassVar[tuple[str, str] | None] = None
-    #: Captions for the report.
-    report_hints: ClassVar[ReportHints] = ReportHints()
-
-    def database(self) -> AssetDatabase:
-        """The asset database of this domain's simulator."""
-        from regen.assets.database import load_packaged_database
-
-        package, resource = self.database_resource
-        return load_packaged_database(package, resource)
-
-    def check_behavior(self, behavior: Behavior) -> None:
-        """Raise :class:`ConfigError` (saying what to do) when the behavior cannot run in this
-        domain, before any model call is spent: an unknown ego template or reward, say.
-        Default: every behavior of the domain is accepted."""
-        return None
-
-    def property_choices(self, asset: str, behavior: Behavior | None = None
-                         ) -> tuple[str | None, dict[str | None, dict[str, list[str]]]] | None:
-        """Properties whose values the simulator restricts, or None.
-
-        ``(key, {value of key: {property: allowed values}})``: once the entity's ``key``
-        property (a driving actor's ``behavior``) takes a value, the other properties may only take
-        the values listed for it, and a property left out does not apply at all (a stationary
-        actor has no speed). With ``key`` None the one entry (under None) holds whatever the
-        entity's values: the start state of the object a manipulation task acts on, which the
-        task fixes. Expansion asks the model for one consistent choice, so the graph never holds
-        a combination grounding cannot honor. ``behavior``: the behavior being explained.
-        Default: no restrictions.
-        """
-        return None
-
-    def settings_key(self, behavior: Behavior) -> dict[str, str | None]:
-        """Behavior fields that change results in this domain (recorded and compared on resume)."""
-        return {}
-
-    @abstractmethod
-    def ground(self, path: CausePath, llm: LLM | None, *, seed: int = 0) -> Scenario:
-        """Turn a cause path into a scenario with an FSM and solved parameters.
-
-        ``llm=None`` grounds with the domain's rules only. A malformed model answer may fall back
-        to rules (recorded in ``scenario.fallbacks``); any other model error (replay miss,
-        provider unreachable, bad model file) must propagate. An unsatisfiable scenario is
-        returned with ``solver.status == 'infeasible'`` and the conflicts named; a path that
-        cannot be grounded raises :class:`regen.errors.GroundingError` with the reason.
-        """
-
-    @abstractmethod
-    def simulate(self, scenario: Scenario, workdir: Path) -> SimulationOutput:
-        """Run the scenario; raise :class:`regen.errors.SimulationError` on simulator failure."""
-
-    def verify(self, scenario: Scenario, trace: Trace) -> tuple[Verdict, Scenario]:
-        """The verdict of the FSM monitor, with over-strict stages relaxed (and recorded); returns
-        the scenario whose FSM the verdict is about."""
-        from regen.verify.relax import verify_with_relaxation
-
-        return verify_with_relaxation(scenario, trace)
-
-    @abstractmethod
-    def render(self, scenario: Scenario, trace: Trace, verdict: Verdict, out_dir: Path) -> dict[str, Path]:
-        """Pictures of the run written into ``out_dir``, as role -> path (``animation`` and
-        ``keyframes`` are shown by the report)."""
-
-    def export(self, scenario: Scenario, out_dir: Path, trace: Trace | None = None) -> dict[str, Path]:
-        """Files other simulators load (Scenic, OpenSCENARIO, ...) as role -> path, given the
-        run's trace when there is one. Optional."""
-        return {}
-
-    def config(self, scenario: Scenario) -> dict:
-        """The scenario in the paper's config form (narrative, entities, vehicles, fsm)."""
-        return {"narrative": scenario.narrative, "causal_graph": scenario.causal_graph,
-                "fsm": scenario.fsm.as_tuples()}
 
 
 _REGISTRY: dict[str, str] = {}  # name -> 'package.module:Class'
@@ -177,7 +25,7 @@ _LOADED: dict[str, type[DomainBackend]] = {}  # entry point -> class, imported o
 
 
 def register(name: str, entry_point: str | type[DomainBackend]) -> None:
-    """Register a domain backend as ``'package.module:Class'`` (imported on first use) or as
+    """Register a domain backend (a :class:`regen.contract.DomainBackend` subclass) as ``'package.module:Class'`` (imported on first use) or as
     the class itself."""
     if isinstance(entry_point, str):
         _REGISTRY[name] = entry_point

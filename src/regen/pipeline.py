@@ -27,13 +27,13 @@ from pathlib import Path
 from typing import Any
 
 from regen import domains
+from regen.contract import DomainBackend
 from regen.core.behavior import Behavior
 from regen.core.graph import CausePath, ScenarioGraph
 from regen.core.io import write_json
 from regen.core.scenario import Scenario
 from regen.core.trace import Trace
 from regen.core.verdict import Verdict
-from regen.domains import DomainBackend
 from regen.errors import LLMError, MalformedAnswerError, RegenError, UngroundableError
 from regen.expand.expansion import expand
 from regen.expand.run import save_graph

@@ -18,7 +18,7 @@ def straight_map(tmp_path_factory):
     """The generated straight-road map in a cache of its own (module scope: drawn tests share it)."""
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("REGEN_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
-        from regen.driving.maps import ensure_map
+        from regen.driving.world.maps import ensure_map
 
         yield ensure_map("straight")
 
@@ -28,10 +28,6 @@ def chain_result(tmp_path_factory):
     """``chain_result(key, i)``: the hand-written feasible chain ``FEASIBLE[key][i]`` through the
     main job's stages (rule-based grounding), run once per session (several modules check it)."""
     pytest.importorskip("scenic")
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).parent))  # the tests folder is not a package
     from driving_chains import FEASIBLE
 
     from regen.pipeline import run_path

@@ -1,12 +1,8 @@
 """Done-when: per ego behavior, three or more hand-written chains ground, simulate and verify;
 impossible chains are reported with reasons; generated Scenic files compile."""
 
-import sys
-from pathlib import Path
 
 import pytest
-
-sys.path.insert(0, str(Path(__file__).parent))  # the tests folder is not a package
 from driving_chains import FEASIBLE, IMPOSSIBLE  # noqa: E402
 
 pytest.importorskip("scenic")

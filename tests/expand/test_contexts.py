@@ -14,9 +14,9 @@ from typer.testing import CliRunner
 
 from regen import domains
 from regen.cli import app
+from regen.contract import ROBOT_ORDERS, Wording
 from regen.core.behavior import Behavior
 from regen.core.graph import ScenarioGraph
-from regen.domains import ROBOT_ORDERS, Wording
 from regen.errors import ConfigError
 from regen.expand import Limits, expand
 from regen.expand.edges import restates_mechanics

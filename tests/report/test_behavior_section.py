@@ -53,11 +53,11 @@ def tested_run(tmp_path_factory):
     sys.path.insert(0, str(DRIVING_TESTS))  # the tests folder is not a package
     from driving_chains import FEASIBLE
 
-    from regen.driving.behavior_test import run_tests
-    from regen.driving.behavior_test import write_report as write_tests
-    from regen.driving.failure_gif import keep_failures
+    from regen.driving.testing.cases import run_tests
+    from regen.driving.testing.cases import write_report as write_tests
+    from regen.driving.testing.failure_pictures import keep_failures
+    from regen.harness.cli import default_out
     from regen.pipeline import run_path
-    from regen.test_cli import default_out
 
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("REGEN_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
@@ -121,7 +121,7 @@ def test_each_failure_has_its_message_and_a_gif(tested_run):
 def test_regen_test_rerenders_the_report(tested_run, tmp_path):
     from typer.testing import CliRunner
 
-    from regen.test_cli import make_app
+    from regen.harness.cli import make_app
 
     run, _, _ = tested_run
     (run / "report.html").unlink()

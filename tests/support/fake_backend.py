@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from regen.contract import DomainBackend, SimulationOutput
 from regen.core import (
     FSM,
     AbstractState,
@@ -15,7 +16,6 @@ from regen.core import (
     StateRef,
     Trace,
 )
-from regen.domains import DomainBackend, SimulationOutput
 from regen.driving.backend import DrivingBackend
 
 

@@ -1,4 +1,4 @@
-"""The driving domain behind :class:`regen.domains.DomainBackend`.
+"""The driving domain behind :class:`regen.contract.DomainBackend`.
 
 ``ground`` -> Scenario (model or rules, CP-SAT placement), ``simulate`` -> Trace (Scenic
 Newtonian), ``verify`` (the shared monitor with relaxation), ``render`` (bird's-eye GIF and key
@@ -9,23 +9,18 @@ frames) and ``export`` (the .scenic program and an OpenSCENARIO replay). The pip
 from __future__ import annotations
 
 import logging
-import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from regen.contract import DomainBackend, ReportHints, SimulationOutput, Wording
 from regen.core.behavior import Behavior
 from regen.core.graph import CausePath
-from regen.core.io import atomic_write_text
 from regen.core.scenario import Scenario
 from regen.core.trace import Trace
 from regen.core.verdict import Verdict
-from regen.domains import DomainBackend, ReportHints, SimulationOutput, Wording
 from regen.driving.assets import RESOURCE
-from regen.driving.assets import database as driving_database
-from regen.driving.ego import EGO_TEMPLATES, template_for
-from regen.driving.ground import ground_rule_based, plans_for
-from regen.driving.maps import ensure_map, geometry
-from regen.driving.scenic_writer import write_program
+from regen.driving.grounding.rules import ground_rule_based
+from regen.driving.world.ego import EGO_TEMPLATES, template_for
 from regen.errors import ConfigError, GroundingError
 
 if TYPE_CHECKING:
@@ -34,83 +29,10 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 
-def _timing(scenario: Scenario) -> tuple[float, int, int]:
-    """Step [s], step count and seed of a scenario's world."""
-    dt = float(scenario.world.get("dt", 0.1))
-    steps = int(round(float(scenario.world.get("duration", 16.0)) / dt))
-    return dt, steps, int(scenario.world.get("seed", 0))
-
-
-def scenic_program(scenario: Scenario) -> str:
-    """The Scenic program of a grounded scenario (the map is generated if needed)."""
-    _, plans = plans_for(scenario)
-    dt, steps, seed = _timing(scenario)
-    return write_program(plans, map_path=str(ensure_map(str(scenario.world["map"]))), dt=dt,
-                         max_steps=steps, narrative=scenario.narrative, seed=seed,
-                         title=scenario.behavior.text)
-
-
-def simulate_scenario(scenario: Scenario) -> SimulationOutput:
-    """Write, compile and run the scenario; SimulationError on any simulator failure."""
-    from regen.driving.record import build_trace
-    from regen.driving.simulate import run_program
-
-    _, plans = plans_for(scenario)
-    name = str(scenario.world["map"])
-    dt, steps, seed = _timing(scenario)
-    run = run_program(scenic_program(scenario), steps=steps, dt=dt, seed=seed)
-    t0 = time.perf_counter()
-    trace = build_trace(run, plans, geometry(name), map_path=str(ensure_map(name)), seed=seed,
-                        meta={"scenario": scenario.id})
-    timings = dict(run.timings)
-    timings["record"] = time.perf_counter() - t0
-    return SimulationOutput(trace=trace, timings=timings)
-
-
-def paper_config(scenario: Scenario) -> dict:
-    """The paper's 'Full Config Example' form of a scenario (appendix), plus the FSM states."""
-    _, plans = plans_for(scenario)
-    by = {p.name: p for p in plans}
-    vehicles = []
-    db = driving_database()
-    for e in scenario.entities:
-        p = by.get(e.name)
-        if p is None:
-            continue
-        end = p.route[-1] if p.route else (p.x, p.y)
-        sched = [s for _, s, _ in p.schedule] or [0.0]
-        spec = db.assets.get(e.asset)
-        vehicles.append({
-            "name": e.name,
-            "start": {"x": round(p.x, 2), "y": round(p.y, 2)},
-            "end": {"x": round(end[0], 2), "y": round(end[1], 2)},
-            "speed_range": [round(min(sched), 2), round(max(sched), 2)],
-            "blueprint_id": (spec.blueprint if spec else "vehicle.lincoln.mkz_2020") or "",
-            "driving_policy": (e.behavior or "stationary").replace("_", " "),
-            "type": "dynamic" if p.dynamic else "static",
-            "heading": round(p.heading * 57.29577951308232, 1),
-        })
-    return {
-        "id": scenario.id,
-        "narrative": scenario.narrative,
-        "entities": [{"name": e.name, "type": e.kind, "entity_name": e.asset,
-                      "properties": e.properties,
-                      "behavioral_properties": {"action": e.behavior or "", **e.behavior_params}}
-                     for e in scenario.entities],
-        "vehicles": vehicles,
-        "causal_graph": scenario.causal_graph,
-        "fsm": [[[a, s] for a, s in stage] for stage in scenario.fsm.as_tuples()],
-        "states": {f"{s.actor}: {s.name}": [str(c) for c in s.all_of] for s in scenario.fsm.states},
-        "world": scenario.world,
-        "parameters": scenario.parameters,
-        "solver": scenario.solver.model_dump(),
-    }
-
-
 class DrivingBackend(DomainBackend):
     name = "driving"
     database_resource = RESOURCE
-    predicates_module = "regen.driving.predicates"
+    predicates_module = "regen.driving.verify.predicates"
     edge_examples = ("regen.driving", "data/edges_example.jsonl")
     wording = Wording(
         expert="driving scenarios and traffic simulation",
@@ -196,31 +118,36 @@ class DrivingBackend(DomainBackend):
         if path.behavior.domain != self.name:
             raise GroundingError(f"the driving backend cannot ground a {path.behavior.domain} behavior")
         if llm is not None:
-            from regen.driving.llm_ground import ground_with_model
+            from regen.driving.grounding.model import ground_with_model
 
             return ground_with_model(path, llm, seed=seed)
         return ground_rule_based(path, seed=seed)
 
     def simulate(self, scenario: Scenario, workdir: Path) -> SimulationOutput:
+        from regen.driving.simulation.scenario import simulate_scenario
+
         return simulate_scenario(scenario)
 
     def render(self, scenario: Scenario, trace: Trace, verdict: Verdict, out_dir: Path) -> dict[str, Path]:
-        from regen.driving.render import render_scenario
+        from regen.driving.render.scenario import render_scenario
 
         return render_scenario(scenario, trace, verdict, out_dir)
 
     def config(self, scenario: Scenario) -> dict:
+        from regen.driving.export.config import paper_config
+
         return paper_config(scenario)
 
     def export(self, scenario: Scenario, out_dir: Path, trace: Trace | None = None) -> dict[str, Path]:
         """The Scenic program that runs the scenario, and with a trace an OpenSCENARIO replay."""
-        out_dir = Path(out_dir)
-        files: dict[str, Path] = {"scenic": atomic_write_text(out_dir / "scenario.scenic", scenic_program(scenario))}
+        from regen.driving.export.scenic import export_scenic
+
+        files = export_scenic(scenario, Path(out_dir))
         if trace is not None:
-            from regen.driving.export_xosc import export_openscenario
+            from regen.driving.export.openscenario import export_openscenario
 
             files.update(export_openscenario(scenario, trace, out_dir))
         return files
 
 
-__all__ = ["DrivingBackend", "paper_config", "scenic_program", "simulate_scenario"]
+__all__ = ["DrivingBackend"]

@@ -1,16 +1,16 @@
-"""The manipulation domain behind :class:`regen.domains.DomainBackend` (PyBullet)."""
+"""The manipulation domain behind :class:`regen.contract.DomainBackend` (PyBullet)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 from regen.assets.database import name_words
+from regen.contract import DomainBackend, ReportHints, SimulationOutput, Wording
 from regen.core.behavior import Behavior
 from regen.core.graph import CausePath
 from regen.core.scenario import Scenario
 from regen.core.trace import Trace
 from regen.core.verdict import Verdict
-from regen.domains import DomainBackend, ReportHints, SimulationOutput, Wording
 from regen.errors import ConfigError, SimulationError
 from regen.manipulation.assets import RESOURCE
 from regen.manipulation.behaviors import BEHAVIORS, resolve

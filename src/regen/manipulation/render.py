@@ -13,10 +13,10 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from regen import media
+from regen.contract import ANIMATION, KEYFRAMES
 from regen.core.scenario import Scenario
 from regen.core.trace import Trace
 from regen.core.verdict import Verdict
-from regen.domains import ANIMATION, KEYFRAMES
 from regen.manipulation.scene import ARM_JOINTS, FINGER_JOINTS, Scene
 from regen.manipulation.simulate import layout_from_scenario
 

@@ -14,11 +14,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 from urllib.parse import quote
 
+from regen.contract import ANIMATION, KEYFRAMES, ReportHints
 from regen.core.behavior import Behavior
 from regen.core.graph import CausePath, ScenarioGraph
 from regen.core.scenario import Scenario
 from regen.core.verdict import Verdict
-from regen.domains import ANIMATION, KEYFRAMES, ReportHints
 from regen.runfolder import Loaded, RunFolder, ScenarioFolder, read_json, read_model, read_text
 
 if TYPE_CHECKING:

@@ -8,7 +8,7 @@ from regen.core.graph import CausePath, PathEntity
 def ground():
     """``ground(template, asset, **properties)``: one actor grounded by the rules around an ego
     template, as (scenario, template, {name: plan})."""
-    from regen.driving.ground import ground_rule_based, plans_for
+    from regen.driving.grounding.rules import ground_rule_based, plans_for
 
     def make(template: str, asset: str, **properties: str):
         cause = f"a {asset} does something"

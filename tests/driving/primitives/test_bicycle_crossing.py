@@ -75,9 +75,9 @@ def test_the_cyclist_crosses_the_egos_lane_ahead_of_it(crossing):
 
 @pytest.mark.slow
 def test_a_constant_speed_ego_hits_the_cyclist(crossing):
-    from regen.driving.collisions import analyze
-    from regen.driving.policies import constant_speed
-    from regen.driving.policy_loop import prepare, run_policy
+    from regen.driving.testing.loop import prepare, run_policy
+    from regen.driving.testing.policies import constant_speed
+    from regen.driving.verify.collisions import analyze
     from regen.runfolder import ScenarioFolder
 
     _, folder = crossing

@@ -5,16 +5,16 @@ from __future__ import annotations
 
 import pytest
 
-from regen.driving.actors import ActorSpec, RoleChoice
 from regen.driving.assets import database
-from regen.driving.ego import EGO_TEMPLATES
-from regen.driving.feasibility import never_holds
-from regen.driving.fsm_rules import is_reaction, rule_based_fsm, with_cause_states
-from regen.driving.ground import check_roles, choose_map, default_location
-from regen.driving.locations import LOCATIONS
+from regen.driving.grounding.feasibility import never_holds
+from regen.driving.grounding.fsm_rules import is_reaction, rule_based_fsm, with_cause_states
+from regen.driving.grounding.placement import solve
+from regen.driving.grounding.rules import check_roles, choose_map, default_location
 from regen.driving.primitives import for_actor, get, is_state_only, registry
 from regen.driving.primitives.base import MOTION_PREDICATES, Placed
-from regen.driving.solve import solve
+from regen.driving.world.actors import ActorSpec, RoleChoice
+from regen.driving.world.ego import EGO_TEMPLATES
+from regen.driving.world.locations import LOCATIONS
 from regen.errors import GroundingError
 from regen.verify.predicates import list_predicates
 

@@ -1,6 +1,6 @@
 import math
 
-from regen.driving.maps import JUNCTION_RADIUS
+from regen.driving.world.maps import JUNCTION_RADIUS
 
 
 def test_red_light_runner_crosses_the_junction_straight(ground):

@@ -1,7 +1,7 @@
 import math
 
-from regen.driving.ego import JUNCTION_CX
-from regen.driving.maps import JUNCTION_RADIUS
+from regen.driving.world.ego import JUNCTION_CX
+from regen.driving.world.maps import JUNCTION_RADIUS
 
 
 def test_oncoming_car_turns_left_into_the_south_arm(ground):

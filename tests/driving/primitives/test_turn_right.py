@@ -1,7 +1,7 @@
 import math
 
-from regen.driving.ego import JUNCTION_CX
-from regen.driving.maps import JUNCTION_RADIUS
+from regen.driving.world.ego import JUNCTION_CX
+from regen.driving.world.maps import JUNCTION_RADIUS
 
 
 def test_cross_street_car_turns_right_into_the_ego_direction(ground):

@@ -12,6 +12,14 @@ from pathlib import Path
 from PIL import Image, ImageDraw
 
 from regen import media
+from regen.contract import (
+    ANIMATION,
+    KEYFRAMES,
+    DomainBackend,
+    ReportHints,
+    SimulationOutput,
+    Wording,
+)
 from regen.core import (
     FSM,
     AbstractState,
@@ -24,14 +32,6 @@ from regen.core import (
     Trace,
 )
 from regen.core.io import atomic_write_text
-from regen.domains import (
-    ANIMATION,
-    KEYFRAMES,
-    DomainBackend,
-    ReportHints,
-    SimulationOutput,
-    Wording,
-)
 from regen.errors import GroundingError
 
 DT = 0.1  # [s]

@@ -19,7 +19,6 @@ from collections.abc import Mapping
 from functools import lru_cache
 from types import MappingProxyType
 
-from regen.driving.locations import LOCATIONS
 from regen.driving.primitives.base import (
     LANE_CHANGE_LENGTH,
     SPEED_CLASSES,
@@ -30,6 +29,7 @@ from regen.driving.primitives.base import (
     RuleStates,
     SpeedClasses,
 )
+from regen.driving.world.locations import LOCATIONS
 from regen.errors import GroundingError
 
 

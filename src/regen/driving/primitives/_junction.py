@@ -1,19 +1,19 @@
 """What the primitives that drive through the junction share (turn_left, turn_right,
 run_red_light): the approach window, the rule states and the route from an arm.
 
-Junction maps (:mod:`regen.driving.maps`) have their centre at ``(JUNCTION_CX, 0)``; the ego
+Junction maps (:mod:`regen.driving.world.maps`) have their centre at ``(JUNCTION_CX, 0)``; the ego
 comes from the west arm. The cross street is the south arm (north-bound lane at
 ``x = JUNCTION_CX + w/2``), the oncoming arm the east one (west-bound lane at ``y = w/2``).
 """
 
 from __future__ import annotations
 
-from regen.driving.actors import ActorSpec, RoleChoice
-from regen.driving.cpsat import DM, PlacementModel
-from regen.driving.ego import JUNCTION_CX, EgoTemplate
-from regen.driving.maps import JUNCTION_RADIUS
-from regen.driving.plan import ActorPlan, Point
 from regen.driving.primitives.base import Constrain, Placed, RuleStates, pred
+from regen.driving.world.actors import ActorSpec, RoleChoice
+from regen.driving.world.ego import JUNCTION_CX, EgoTemplate
+from regen.driving.world.maps import JUNCTION_RADIUS
+from regen.driving.world.placement import DM, PlacementModel
+from regen.driving.world.plan import ActorPlan, Point
 
 EXIT_LENGTH = 150.0  # [m] a route runs this far past the junction
 

@@ -6,12 +6,12 @@ from __future__ import annotations
 
 from typing import Any
 
-from regen.driving.actors import ActorSpec
-from regen.driving.cpsat import DM, PlacementModel
-from regen.driving.ego import Frame
-from regen.driving.plan import ActorPlan, LaneChange
 from regen.driving.primitives.base import LANE_CHANGE_LENGTH, Placed
-from regen.driving.triggers import offset_reached
+from regen.driving.world.actors import ActorSpec
+from regen.driving.world.ego import Frame
+from regen.driving.world.placement import DM, PlacementModel
+from regen.driving.world.plan import ActorPlan, LaneChange
+from regen.driving.world.triggers import offset_reached
 
 ROUTE_AHEAD = 400.0  # [m] a route runs this far along the frame
 # [s] (template time) a lane change is laid out this long before it starts, so that the route

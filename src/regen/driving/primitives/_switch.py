@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from regen.driving.actors import ActorSpec
-from regen.driving.cpsat import PlacementModel
+from regen.driving.world.actors import ActorSpec
+from regen.driving.world.placement import PlacementModel
 
 
 def switch_time(m: PlacementModel, a: ActorSpec) -> Any:

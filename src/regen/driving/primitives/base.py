@@ -14,11 +14,11 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 
 from regen.core.scenario import PredicateCall
-from regen.driving.actors import PEDESTRIAN_ASSETS, ActorSpec, RoleChoice, scenic_class
-from regen.driving.cpsat import PlacementModel
-from regen.driving.ego import EgoTemplate
-from regen.driving.locations import lateral_offset
-from regen.driving.plan import ActorPlan
+from regen.driving.world.actors import PEDESTRIAN_ASSETS, ActorSpec, RoleChoice, scenic_class
+from regen.driving.world.ego import EgoTemplate
+from regen.driving.world.locations import lateral_offset
+from regen.driving.world.placement import PlacementModel
+from regen.driving.world.plan import ActorPlan
 
 SPEED_CLASSES = ("slow", "moderate", "fast")
 # Predicates about an actor's own motion: none of them holds for an actor that does not move.
@@ -111,7 +111,7 @@ class Primitive:
     # asset database categories whose assets may use it ('vehicles', 'pedestrians', ...); which
     # assets do is the database's ``assets.<id>.behaviors``
     users: frozenset[str]
-    starts: tuple[str, ...]  # start locations it supports (regen.driving.locations), default first
+    starts: tuple[str, ...]  # start locations it supports (regen.driving.world.locations), default first
     speeds: SpeedClasses | None  # None: the speed classes of the actor's asset (speed pinned)
     moves: bool  # False: no motion predicate ever holds for it
     leaves_line: bool = False  # it moves sideways out of its lane line: `changing_lane` can hold

@@ -11,11 +11,6 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from regen.driving.actors import ActorSpec, RoleChoice
-from regen.driving.cpsat import DM, PlacementModel
-from regen.driving.ego import EGO_SIZE, EgoTemplate
-from regen.driving.locations import LOCATIONS
-from regen.driving.plan import ActorPlan
 from regen.driving.primitives.base import (
     ClassMotion,
     PedestrianPrimitive,
@@ -24,7 +19,12 @@ from regen.driving.primitives.base import (
     SpeedClasses,
     pred,
 )
-from regen.driving.triggers import approach
+from regen.driving.world.actors import ActorSpec, RoleChoice
+from regen.driving.world.ego import EGO_SIZE, EgoTemplate
+from regen.driving.world.locations import LOCATIONS
+from regen.driving.world.placement import DM, PlacementModel
+from regen.driving.world.plan import ActorPlan
+from regen.driving.world.triggers import approach
 
 # A cyclist riding across the road from a standstill at the kerb: slow 1.5-2.5 m/s (5-9 km/h),
 # moderate 2.5-4 m/s (9-14 km/h), fast 4-6 m/s (14-22 km/h). Slower than riding along the road:

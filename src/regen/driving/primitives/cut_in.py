@@ -6,11 +6,11 @@ speed (:func:`regen.driving.primitives._lanes.lane_change_plan`).
 
 from __future__ import annotations
 
-from regen.driving.actors import ActorSpec, RoleChoice
-from regen.driving.cpsat import DM, PlacementModel
-from regen.driving.ego import EgoTemplate
 from regen.driving.primitives import _lanes
 from regen.driving.primitives.base import RuleStates, VehiclePrimitive, pred
+from regen.driving.world.actors import ActorSpec, RoleChoice
+from regen.driving.world.ego import EgoTemplate
+from regen.driving.world.placement import DM, PlacementModel
 
 
 def _constrain(m: PlacementModel, a: ActorSpec, speeds: tuple[float, float]) -> None:

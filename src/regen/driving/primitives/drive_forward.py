@@ -13,13 +13,13 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from regen.driving.actors import ActorSpec, RoleChoice
-from regen.driving.cpsat import DM, PlacementModel
-from regen.driving.ego import EgoTemplate
-from regen.driving.plan import ActorPlan
 from regen.driving.primitives import _lanes
 from regen.driving.primitives.base import Placed, RuleStates, VehiclePrimitive, pred
-from regen.driving.triggers import Trigger, approach, ego_slower
+from regen.driving.world.actors import ActorSpec, RoleChoice
+from regen.driving.world.ego import EgoTemplate
+from regen.driving.world.placement import DM, PlacementModel
+from regen.driving.world.plan import ActorPlan
+from regen.driving.world.triggers import Trigger, approach, ego_slower
 
 REACTION_TIME = {"attentive": 1.0, "distracted": 2.2}  # [s] before a follower brakes, by driver_state
 
@@ -150,7 +150,7 @@ def _no_trigger(placed: Placed) -> Trigger | None:
 
 def _leading_trigger(placed: Placed) -> Trigger | None:
     """It brakes as the ego comes near where it brakes in the template, or departs at its time
-    before the waiting ego (:func:`~regen.driving.triggers.approach` makes that a time trigger)."""
+    before the waiting ego (:func:`~regen.driving.world.triggers.approach` makes that a time trigger)."""
     ego, p = placed.ego, placed.params
     if "t" not in p:
         return None

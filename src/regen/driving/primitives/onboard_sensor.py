@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import math
 
-from regen.driving.actors import ActorSpec, RoleChoice
-from regen.driving.cpsat import PlacementModel
-from regen.driving.ego import EgoTemplate
-from regen.driving.plan import ActorPlan
 from regen.driving.primitives import _switch
 from regen.driving.primitives.base import Placed, Primitive, RuleStates, pred
-from regen.driving.triggers import approach
+from regen.driving.world.actors import ActorSpec, RoleChoice
+from regen.driving.world.ego import EgoTemplate
+from regen.driving.world.placement import PlacementModel
+from regen.driving.world.plan import ActorPlan
+from regen.driving.world.triggers import approach
 
 SENSOR_SIZE = 0.1  # [m] length, width and height of the marker a sensor gets in a trace
 

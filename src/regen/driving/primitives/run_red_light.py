@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import math
 
-from regen.driving.maps import JUNCTION_RADIUS
-from regen.driving.plan import ActorPlan
 from regen.driving.primitives import _junction
 from regen.driving.primitives.base import Placed, VehiclePrimitive
+from regen.driving.world.maps import JUNCTION_RADIUS
+from regen.driving.world.plan import ActorPlan
 
 
 def _plan(placed: Placed) -> ActorPlan:

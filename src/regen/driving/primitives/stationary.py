@@ -5,14 +5,14 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from regen.driving.actors import ActorSpec, RoleChoice
-from regen.driving.cpsat import DM, PlacementModel
-from regen.driving.ego import EGO_SIZE, JUNCTION_CX, EgoTemplate
-from regen.driving.locations import LOCATIONS
-from regen.driving.maps import JUNCTION_RADIUS
-from regen.driving.plan import ActorPlan
 from regen.driving.primitives.base import Placed, Primitive, RuleStates, pred
-from regen.driving.triggers import approach
+from regen.driving.world.actors import ActorSpec, RoleChoice
+from regen.driving.world.ego import EGO_SIZE, JUNCTION_CX, EgoTemplate
+from regen.driving.world.locations import LOCATIONS
+from regen.driving.world.maps import JUNCTION_RADIUS
+from regen.driving.world.placement import DM, PlacementModel
+from regen.driving.world.plan import ActorPlan
+from regen.driving.world.triggers import approach
 
 
 def _in_the_ego_path(m: PlacementModel, a: ActorSpec, s: Any) -> None:

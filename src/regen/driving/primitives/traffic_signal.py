@@ -8,15 +8,15 @@ from __future__ import annotations
 
 import math
 
-from regen.driving.actors import ActorSpec, RoleChoice
-from regen.driving.cpsat import PlacementModel
-from regen.driving.ego import EgoTemplate
-from regen.driving.maps import geometry
-from regen.driving.plan import ActorPlan
 from regen.driving.primitives import _switch, stationary
 from regen.driving.primitives.base import Placed, Primitive, RuleStates, pred
-from regen.driving.properties import YELLOW_TIME
-from regen.driving.triggers import approach
+from regen.driving.world.actors import ActorSpec, RoleChoice
+from regen.driving.world.ego import EgoTemplate
+from regen.driving.world.maps import geometry
+from regen.driving.world.placement import PlacementModel
+from regen.driving.world.plan import ActorPlan
+from regen.driving.world.properties import YELLOW_TIME
+from regen.driving.world.triggers import approach
 
 MIN_GREEN = 0.5  # [s] a light that turns red shows green at least this long first
 

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import math
 
-from regen.driving.actors import ActorSpec, RoleChoice
-from regen.driving.cpsat import PlacementModel
-from regen.driving.ego import EgoTemplate
-from regen.driving.locations import LOCATIONS
-from regen.driving.plan import ActorPlan
 from regen.driving.primitives import _lanes
 from regen.driving.primitives.base import PedestrianPrimitive, Placed, RuleStates, pred
+from regen.driving.world.actors import ActorSpec, RoleChoice
+from regen.driving.world.ego import EgoTemplate
+from regen.driving.world.locations import LOCATIONS
+from regen.driving.world.placement import PlacementModel
+from regen.driving.world.plan import ActorPlan
 
 WALK_LENGTH = 200.0  # [m] of sidewalk on its route
 

@@ -1,0 +1,330 @@
+"""OpenSCENARIO 1.x export of a driving run, for replay in esmini, CARLA's ScenarioRunner & co.
+
+Every actor of the trace becomes an entity (vehicle, pedestrian or misc object, with its size and
+its scenario properties), is teleported to its first recorded pose, and, if it moves (and its
+motion primitive is one that OpenSCENARIO replays, ``Primitive.xosc_trajectory``), follows the
+recorded path as a timed polyline trajectory (positions subsampled, times absolute from the start
+of the run). The scenario's OpenDRIVE map is copied beside the ``.xosc`` and referenced by its
+file name, so the folder can be moved as a whole.
+
+Names come from a language model: entity names are restricted to ``[A-Za-z0-9_-]`` before they
+reach the file, and free text (narrative, property values) is stripped of characters XML cannot
+hold; ElementTree escapes quotes and angle brackets.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import re
+import shutil
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from regen.core.io import atomic_write_bytes
+from regen.core.scenario import Scenario
+from regen.core.trace import ActorTrack, Trace
+from regen.errors import ConfigError, DependencyNotInstalled, RegenError
+
+log = logging.getLogger(__name__)
+
+__all__ = ["export_openscenario", "validate_xosc", "safe_name"]
+
+OSC_MINOR = 2  # OpenSCENARIO 1.2: widely read (esmini, ScenarioRunner) and has vehicle roles
+SAMPLE_DT = 0.5  # [s] between trajectory vertices
+MOVING = 0.2  # [m] an actor whose path is shorter than this gets no trajectory
+
+# asset -> OpenSCENARIO vehicle category; other vehicles are cars
+_VEHICLE_CATEGORY = {"truck": "truck", "fire_truck": "truck", "bus": "bus", "bicycle": "bicycle",
+                     "motorcycle": "motorbike", "ambulance": "van"}
+_ROLE = {"ambulance": "ambulance", "police_car": "police", "fire_truck": "fire"}
+_MISC_CATEGORY = {"barrier": "barrier", "traffic_light": "pole"}
+_MASS = {"vehicle": 1500.0, "pedestrian": 75.0, "misc": 50.0}  # [kg], nominal
+_NAME_OK = re.compile(r"[^A-Za-z0-9_-]")
+_XML_BAD = re.compile("[^\u0009\u000a\u000d\u0020-\ud7ff\ue000-\ufffd]")
+
+
+def safe_name(name: str) -> str:
+    """``name`` with every character outside ``[A-Za-z0-9_-]`` replaced by ``_`` (never empty)."""
+    out = _NAME_OK.sub("_", name.strip())[:64]
+    return out or "entity"
+
+
+def _safe_text(text: str, limit: int = 1000) -> str:
+    """Free text without the characters XML 1.0 cannot represent, shortened to ``limit``."""
+    return _XML_BAD.sub("", text)[:limit]
+
+
+def _xosc():
+    try:
+        from scenariogeneration import xosc
+    except ModuleNotFoundError as exc:
+        raise DependencyNotInstalled("scenariogeneration", "driving", "OpenSCENARIO export") from exc
+    return xosc
+
+
+def _unique_names(names: list[str]) -> dict[str, str]:
+    """Original name -> file name, safe and unique (suffixes on clashes)."""
+    out: dict[str, str] = {}
+    used: set[str] = set()
+    for name in names:
+        base = safe_name(name)
+        cand, k = base, 2
+        while cand in used:
+            cand, k = f"{base}_{k}", k + 1
+        used.add(cand)
+        out[name] = cand
+        if cand != name:
+            log.warning("entity name %r is written as %r in the OpenSCENARIO file", name, cand)
+    return out
+
+
+def _kind(asset: str, db) -> str | None:
+    """'vehicle', 'pedestrian', 'misc', or None for things that are not placed (sensors)."""
+    cat = db.category_of(asset) if db is not None else None
+    spec = db.assets.get(asset) if db is not None else None
+    # a static object with doors is a parked vehicle; simulators should show a car
+    if cat == "vehicles" or (spec is not None and "door" in spec.properties):
+        return "vehicle"
+    if cat == "pedestrians":
+        return "pedestrian"
+    if cat == "sensors":
+        return None
+    return "misc"
+
+
+def _size(track: ActorTrack, db) -> tuple[float, float, float]:
+    """Length, width, height [m]: the trace's footprint, else the database's size, else 1 m."""
+    spec = db.assets.get(track.asset) if db is not None else None
+    length, width, height = tuple(spec.size) if spec is not None else (1.0, 1.0, 1.0)
+    if track.length > 0 and track.width > 0:
+        length, width = track.length, track.width
+    return length, width, track.height if track.height > 0 else height
+
+
+def _entity(xosc, name: str, track: ActorTrack, kind: str, db, props: dict[str, str]):
+    length, width, height = _size(track, db)
+    # positions in the trace are footprint centres, so the reference point is the box centre
+    bbox = xosc.BoundingBox(width, length, height, 0.0, 0.0, height / 2)
+    if kind == "vehicle":
+        category = getattr(xosc.VehicleCategory, _VEHICLE_CATEGORY.get(track.asset, "car"))
+        role = _ROLE.get(track.asset)
+        wheel = 0.4 if track.asset in ("bicycle", "motorcycle") else 0.7  # [m] wheel diameter
+        front = xosc.Axle(0.5, wheel, 0.85 * width, 0.3 * length, wheel / 2)
+        rear = xosc.Axle(0.0, wheel, 0.85 * width, -0.3 * length, wheel / 2)
+        obj = xosc.Vehicle(name, category, bbox, front, rear, max_speed=70.0, max_acceleration=10.0,
+                           max_deceleration=10.0, mass=_MASS["vehicle"],
+                           role=getattr(xosc.Role, role) if role else None)
+    elif kind == "pedestrian":
+        obj = xosc.Pedestrian(name, _MASS["pedestrian"], xosc.PedestrianCategory.pedestrian, bbox,
+                              model=safe_name(track.asset))
+    else:
+        category = getattr(xosc.MiscObjectCategory, _MISC_CATEGORY.get(track.asset, "obstacle"))
+        obj = xosc.MiscObject(name, _MASS["misc"], category, bbox)
+    obj.add_property("regen_asset", safe_name(track.asset))
+    for key, value in props.items():
+        obj.add_property(f"regen_{safe_name(key)}", _safe_text(str(value), 200))
+    return obj
+
+
+def _samples(times: np.ndarray, sample_dt: float) -> np.ndarray:
+    """Step indices every ``sample_dt`` seconds, first and last step included."""
+    picks = [0]
+    for i in range(1, len(times)):
+        if times[i] - times[picks[-1]] >= sample_dt - 1e-9:
+            picks.append(i)
+    if picks[-1] != len(times) - 1:
+        picks.append(len(times) - 1)
+    return np.asarray(picks)
+
+
+def _headings(track: ActorTrack) -> np.ndarray:
+    if track.heading:
+        return np.asarray(track.heading, float)
+    x, y = np.asarray(track.x, float), np.asarray(track.y, float)
+    h = np.arctan2(np.diff(y, append=y[-1:]), np.diff(x, append=x[-1:]))
+    if len(h) > 1:
+        h[-1] = h[-2]
+    return h
+
+
+def _position(xosc, track: ActorTrack, heading: np.ndarray, i: int):
+    z = float(track.z[i]) if track.z else 0.0
+    h = float(heading[i]) % (2 * math.pi)  # OpenSCENARIO headings are ccw from +x too
+    return xosc.WorldPosition(float(track.x[i]), float(track.y[i]), z, h)
+
+
+def _trajectory_event(xosc, name: str, track: ActorTrack, heading: np.ndarray, times: np.ndarray,
+                      sample_dt: float):
+    idx = _samples(times, sample_dt)
+    poly = xosc.Polyline([float(times[i] - times[0]) for i in idx],
+                         [_position(xosc, track, heading, int(i)) for i in idx])
+    traj = xosc.Trajectory(f"{name}_path", False)
+    traj.add_shape(poly)
+    # position mode with absolute timing: replay where and when the actor was, not a controller
+    action = xosc.FollowTrajectoryAction(traj, xosc.FollowingMode.position,
+                                         xosc.ReferenceContext.absolute, 1, 0)
+    event = xosc.Event(f"{name}_replay", xosc.Priority.override)
+    event.add_action(f"{name}_follow", action)
+    event.add_trigger(xosc.ValueTrigger(f"{name}_start", 0, xosc.ConditionEdge.none,
+                                        xosc.SimulationTimeCondition(0, xosc.Rule.greaterOrEqual)))
+    maneuver = xosc.Maneuver(f"{name}_maneuver")
+    maneuver.add_event(event)
+    group = xosc.ManeuverGroup(f"{name}_group")
+    group.add_actor(name)
+    group.add_maneuver(maneuver)
+    return group
+
+
+def _standing(scenario: Scenario) -> set[str]:
+    """Actors whose motion primitive OpenSCENARIO does not replay as a trajectory (they stand);
+    the others, the ego included, get one when their recorded path is long enough."""
+    from regen.driving.primitives import find
+
+    out = set()
+    for e in scenario.entities:
+        spec = find(e.behavior) if e.kind != "ego" and e.behavior else None
+        if spec is not None and not spec.xosc_trajectory:
+            out.add(e.name)
+    return out
+
+
+def _map_file(scenario: Scenario, trace: Trace) -> Path | None:
+    raw = trace.meta.get("map_path")
+    if isinstance(raw, str) and raw and Path(raw).is_file():
+        return Path(raw)
+    name = trace.meta.get("map") or scenario.world.get("map")
+    if isinstance(name, str) and name:
+        try:
+            from regen.driving.world.maps import ensure_map
+
+            return ensure_map(name)
+        except (ImportError, RegenError) as exc:
+            log.warning("no map for the OpenSCENARIO export (%s)", exc)
+    return None
+
+
+def export_openscenario(scenario: Scenario, trace: Trace, out_dir: Path, *,
+                        sample_dt: float = SAMPLE_DT) -> dict[str, Path]:
+    """Write ``scenario.xosc`` (OpenSCENARIO 1.2) and a copy of the ``.xodr`` map into ``out_dir``.
+
+    ``sample_dt`` [s] is the spacing of trajectory vertices. Returns ``{"xosc": path}`` plus
+    ``"xodr"`` when the map is known. A trace without steps raises :class:`ConfigError`.
+    """
+    if trace.steps == 0:
+        raise ConfigError(f"scenario {scenario.id!r}: the trace has no steps; nothing to export")
+    if not sample_dt > 0:
+        raise ConfigError(f"sample_dt must be positive, got {sample_dt!r}")
+    xosc = _xosc()
+    try:
+        from regen.driving.assets import database as driving_database
+
+        db = driving_database()
+    except RegenError as exc:
+        log.warning("driving asset database unavailable (%s); exporting every actor as an object", exc)
+        db = None
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    files: dict[str, Path] = {}
+
+    xodr = _map_file(scenario, trace)
+    if xodr is not None:
+        files["xodr"] = out_dir / f"{safe_name(xodr.stem)}.xodr"
+        if files["xodr"].resolve() != xodr.resolve():
+            shutil.copyfile(xodr, files["xodr"])
+        road = xosc.RoadNetwork(roadfile=files["xodr"].name)
+    else:
+        log.warning("scenario %s: no OpenDRIVE map known; the .xosc has an empty road network",
+                    scenario.id)
+        road = xosc.RoadNetwork()
+
+    names = _unique_names(list(trace.actors))
+    props = {e.name: e.properties for e in scenario.entities}
+    standing = _standing(scenario)
+    times = np.asarray(trace.times, float)
+    entities = xosc.Entities()
+    init = xosc.Init()
+    story = xosc.Story(f"{safe_name(scenario.id)}_story")
+    act = xosc.Act(f"{safe_name(scenario.id)}_replay", xosc.ValueTrigger(
+        "act_start", 0, xosc.ConditionEdge.none, xosc.SimulationTimeCondition(0, xosc.Rule.greaterOrEqual)))
+    moving = 0
+    for orig, track in trace.actors.items():
+        kind = _kind(track.asset, db)
+        if kind is None or not track.x:
+            continue
+        name = names[orig]
+        entities.add_scenario_object(name, _entity(xosc, name, track, kind, db, props.get(orig, {})))
+        heading = _headings(track)
+        init.add_init_action(name, xosc.TeleportAction(_position(xosc, track, heading, 0)))
+        x, y = np.asarray(track.x, float), np.asarray(track.y, float)
+        if orig not in standing and float(np.hypot(np.diff(x), np.diff(y)).sum()) >= MOVING:
+            if track.speed and kind != "misc":
+                init.add_init_action(name, xosc.AbsoluteSpeedAction(float(track.speed[0]), xosc.TransitionDynamics(
+                    xosc.DynamicsShapes.step, xosc.DynamicsDimension.time, 0)))
+            act.add_maneuver_group(_trajectory_event(xosc, name, track, heading, times, sample_dt))
+            moving += 1
+    if moving:
+        story.add_act(act)
+    duration = float(times[-1] - times[0])
+    stop = xosc.ValueTrigger("end_of_recording", 0, xosc.ConditionEdge.rising,
+                             xosc.SimulationTimeCondition(duration, xosc.Rule.greaterThan),
+                             triggeringpoint="stop")
+    board = xosc.StoryBoard(init, stop)
+    if moving:
+        board.add_story(story)
+    description = _safe_text(f"ReGen scenario {scenario.id}: {scenario.narrative}")
+    doc = xosc.Scenario(description, "regen", xosc.ParameterDeclarations(), entities, board, road,
+                        xosc.Catalog(), osc_minor_version=OSC_MINOR)
+    text = _to_xml(doc)
+    files["xosc"] = atomic_write_bytes(out_dir / "scenario.xosc", text)
+    log.info("exported %s: %d entities, %d trajectories", files["xosc"], len(names), moving)
+    return {"xosc": files["xosc"], **({"xodr": files["xodr"]} if "xodr" in files else {})}
+
+
+def _to_xml(doc) -> bytes:
+    """The document as UTF-8 bytes, pretty-printed (scenariogeneration writes only to paths)."""
+    import xml.etree.ElementTree as ET
+
+    root = doc.get_element()
+    ET.indent(root)
+    return ET.tostring(root, encoding="utf-8", xml_declaration=True)
+
+
+@lru_cache(maxsize=4)
+def _schema(minor: int):
+    try:
+        import scenariogeneration
+        import xmlschema
+    except ModuleNotFoundError as exc:
+        raise DependencyNotInstalled(exc.name or "xmlschema", "driving", "OpenSCENARIO validation") from exc
+    # scenariogeneration installs its schemas in a top-level 'schemas' folder beside the package
+    folder = Path(scenariogeneration.__file__).resolve().parent.parent / "schemas"
+    stem = "1_3_1" if minor == 3 else f"1_{minor}"
+    path = folder / f"OpenSCENARIO_{stem}.xsd"
+    if not path.is_file():
+        raise DependencyNotInstalled("scenariogeneration", "driving",
+                                     f"OpenSCENARIO validation (schema {path.name} not found)")
+    return xmlschema.XMLSchema(str(path))
+
+
+def validate_xosc(path: Path) -> list[str]:
+    """Schema errors of an OpenSCENARIO 1.x file (empty when valid), using the schema that
+    ``scenariogeneration`` bundles for the file's ``revMinor``."""
+    import xml.etree.ElementTree as ET
+
+    try:
+        tree = ET.parse(path)
+    except (ET.ParseError, OSError) as exc:
+        return [f"{path}: not readable XML: {exc}"]
+    header = tree.getroot().find("FileHeader")
+    if header is None or header.get("revMajor") != "1":
+        return [f"{path}: no OpenSCENARIO 1.x FileHeader"]
+    try:
+        minor = int(header.get("revMinor", ""))
+    except ValueError:
+        return [f"{path}: revMinor is not a number"]
+    if not 0 <= minor <= 3:
+        return [f"{path}: OpenSCENARIO 1.{minor} has no bundled schema"]
+    return [f"{e.path}: {e.reason}" for e in _schema(minor).iter_errors(tree)]

@@ -1,0 +1,224 @@
+"""The rule-based FSM, and the cause stages every driving FSM must have.
+
+The rule-based FSM is a deterministic default per ego template and per actor primitive, used for
+hand-written chains and whenever the model's FSM is unusable. Stages: (1) every actor's initial
+state with the ego's initial state, (2) each actor's cause states, one stage each, actors in
+path order, (3) the ego's reaction states, one stage each, (4) the actors' final states together.
+
+Cause fidelity: the cause states of an actor (its primitive's, see
+:class:`~regen.driving.primitives.base.RuleStates`) show the cause playing out and are marked
+``cause=True``. :func:`with_cause_states` adds them to an FSM the model wrote when it lacks them
+before the ego's reaction, so no FSM can be accepted without its cause having played out.
+"""
+
+from __future__ import annotations
+
+from regen.core.scenario import FSM, AbstractState, PredicateCall, Stage, StateRef
+from regen.driving.primitives import for_actor
+from regen.driving.primitives.base import RuleStates, State, pred
+from regen.driving.world.actors import RoleChoice
+from regen.driving.world.ego import EgoTemplate
+from regen.verify.predicates import get_predicate
+
+Calls = list[PredicateCall]
+CAUSES_ADDED = "cause stages added by rules: "  # how the note of cause stages added to an FSM starts
+
+# Predicates of the ego's reaction, per kind of ego template: an ego state that names one (not
+# negated) is a reaction state, and every cause stage must come before the first of them.
+_STOPPING = frozenset({"braking", "stopped", "slower_than", "brake_lights_on"})
+REACTION_PREDICATES: dict[str, frozenset[str]] = {
+    "drive_forward": frozenset({"moving", "accelerating", "steady"}),
+    "slow_down": frozenset({"braking", "slower_than", "brake_lights_on"}),
+    "change_lane": frozenset({"changing_lane"}),  # and being in another lane than at the start
+    "stop_abruptly": _STOPPING,
+    "stop_after_turn": _STOPPING,
+    "stop_in_intersection": _STOPPING,
+}
+
+
+def ego_states(t: EgoTemplate) -> tuple[State, list[State]]:
+    """(initial state, reaction states in order) of the ego."""
+    e = "ego"
+    if t.id == "drive_forward":
+        return ("waiting", [pred("stopped", e)]), [("driving_off", [pred("moving", e, min_speed=2.0),
+                                                                    pred("accelerating", e)])]
+    if t.id == "slow_down":
+        return ("driving", [pred("moving", e, min_speed=8.0)]), [
+            ("slowing", [pred("braking", e, min_decel=1.0)]),
+            ("driving_slowly", [pred("moving", e, min_speed=1.0), pred("slower_than", e, max_speed=6.0)])]
+    if t.id == "change_lane":
+        return ("driving", [pred("moving", e, min_speed=5.0), pred("in_lane", e, lane=1)]), [
+            ("changing_lane", [pred("changing_lane", e)]),
+            ("in_new_lane", [pred("in_lane", e, lane=0), pred("moving", e, min_speed=5.0)])]
+    events: list[State] = []
+    events.append(("braking", [pred("braking", e, min_decel=4.0)]))
+    stopped = [pred("stopped", e)]
+    if t.id == "stop_in_intersection":
+        stopped.append(pred("in_junction", e))
+    events.append(("stopped", stopped))
+    return ("driving", [pred("moving", e, min_speed=3.0)]), events
+
+
+def actor_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:
+    """The initial, cause and final states of one actor: those of its primitive, each with the
+    states its properties show all along (siren, hazard lights)."""
+    states = for_actor(r.asset, r.primitive).rule_states(r, t)
+    extra: Calls = []
+    if r.properties.get("siren") == "on":
+        extra.append(pred("siren_on", r.name))
+    if r.properties.get("hazard_lights") == "on":
+        extra.append(pred("hazard_lights_on", r.name))
+
+    def add(st: State) -> State:
+        return (st[0], st[1] + extra)
+
+    return RuleStates(initial=states.initial and add(states.initial), cause=tuple(map(add, states.cause)),
+                      final=states.final and add(states.final))
+
+
+def cause_states(roles: list[RoleChoice], t: EgoTemplate) -> list[AbstractState]:
+    """Every actor's cause states (marked ``cause``), actors in path order, each in its order."""
+    return [AbstractState(name=name, actor=r.name, all_of=calls, cause=True)
+            for r in roles for name, calls in actor_states(r, t).cause]
+
+
+def rule_based_fsm(roles: list[RoleChoice], t: EgoTemplate) -> FSM:
+    """The default FSM for a set of actors around an ego template."""
+    states: list[AbstractState] = []
+    first: list[StateRef] = []
+    finals: list[StateRef] = []
+    for r in roles:
+        own = actor_states(r, t)
+        for st, bucket in ((own.initial, first), (own.final, finals)):
+            if st is not None:
+                states.append(AbstractState(name=st[0], actor=r.name, all_of=st[1]))
+                bucket.append(StateRef(actor=r.name, state=st[0]))
+    causes = cause_states(roles, t)
+    states += causes
+    (ename, ecalls), events = ego_states(t)
+    states.append(AbstractState(name=ename, actor="ego", all_of=ecalls))
+    stages = [Stage(conditions=first + [StateRef(actor="ego", state=ename)])]
+    if t.id == "stop_after_turn":  # the turn comes before the causes of the stop
+        states.append(AbstractState(name="turning", actor="ego",
+                                    all_of=[pred("turning", "ego"), pred("moving", "ego", min_speed=2.0)]))
+        stages.append(Stage(conditions=[StateRef(actor="ego", state="turning")]))
+    stages += [Stage(conditions=[StateRef(actor=c.actor, state=c.name)]) for c in causes]
+    for name, calls in events:
+        states.append(AbstractState(name=name, actor="ego", all_of=calls))
+        stages.append(Stage(conditions=[StateRef(actor="ego", state=name)]))
+    if finals:
+        stages.append(Stage(conditions=finals))
+    return FSM(states=states, stages=stages)
+
+
+# --- cause stages in an FSM the model wrote ----------------------------------------------------
+
+
+def is_reaction(state: AbstractState, t: EgoTemplate) -> bool:
+    """Whether ``state`` is one of the ego's reaction (braking, stopped, changing lane, driving
+    off ...) for the ego template ``t``."""
+    if state.actor != "ego":
+        return False
+    names = REACTION_PREDICATES.get(t.id, _STOPPING)
+    for c in state.all_of:
+        if c.negate:
+            continue
+        if c.name in names:
+            return True
+        if t.id == "change_lane" and c.name == "in_lane" and int(float(c.params.get("lane", 0))) != t.ego_lane:
+            return True
+    return False
+
+
+def _param(call: PredicateCall, key: str) -> float | int | str | bool:
+    spec = get_predicate(call.name, "driving")
+    return call.params.get(key, spec.params.get(key, 0.0))
+
+
+def _at_least_as_strict(have: PredicateCall, want: PredicateCall) -> bool:
+    """Whether ``have`` holds only where ``want`` holds (same predicate, actors and sign, and
+    a threshold no looser)."""
+    if (have.name, have.args, have.negate) != (want.name, want.args, want.negate):
+        return False
+    for key in set(want.params) | set(have.params):
+        h, w = _param(have, key), _param(want, key)
+        if isinstance(w, str) or isinstance(h, str) or key == "lane":
+            if str(h) != str(w):
+                return False
+            continue
+        # an upper bound (max_speed, a distance within) is stricter when lower, a lower bound
+        # (min_speed, min_gap, far_from's distance) when higher; negation flips both
+        lower = key in ("max_speed", "tolerance") or (key == "distance" and have.name != "far_from")
+        if lower != have.negate:
+            if float(h) > float(w):
+                return False
+        elif float(h) < float(w):
+            return False
+    return True
+
+
+def entails(have: AbstractState, want: AbstractState) -> bool:
+    """Whether the state ``have`` (of the same actor) holds only where ``want`` holds: each call
+    of ``want`` has a call in ``have`` at least as strict."""
+    return have.actor == want.actor and all(any(_at_least_as_strict(h, w) for h in have.all_of)
+                                            for w in want.all_of)
+
+
+def _free_name(taken: set[tuple[str, str]], actor: str, name: str) -> str:
+    if (actor, name) not in taken:
+        return name
+    k = 2
+    while (actor, f"{name}_{k}") in taken:
+        k += 1
+    return f"{name}_{k}"
+
+
+def with_cause_states(fsm: FSM, roles: list[RoleChoice], t: EgoTemplate) -> tuple[FSM, list[str]]:
+    """``fsm`` with every actor's cause states, in their order, before the ego's first reaction.
+
+    Per actor, its cause states are looked for in order in the stages before the first reaction
+    stage: a state of the FSM that entails one (in a later stage than the previous one found) is
+    marked ``cause``. A cause state without such a state is added in a stage of its own: the
+    actor's last one right before the first reaction stage (at the end when the FSM has none),
+    an earlier one right after the stage where the one before it was found (else first).
+    Returns the FSM and, per added state, ``'<actor>: <state> (<predicates>)'``.
+    """
+    stages = list(fsm.stages)
+    first = next((k for k, st in enumerate(stages)
+                  if any(is_reaction(fsm.state(c.actor, c.state), t) for c in st.conditions)), len(stages))
+    states = {(s.actor, s.name): s for s in fsm.states}
+    added: list[str] = []
+    before: dict[int, list[Stage]] = {}  # stage index -> stages added right before it
+    for r in roles:
+        wanted = cause_states([r], t)
+        found: list[int | None] = []
+        after = -1
+        for want in wanted:
+            hit = next(((k, (c.actor, c.state)) for k in range(after + 1, first) for c in stages[k].conditions
+                        if entails(states[(c.actor, c.state)], want)), None)
+            if hit is None:
+                found.append(None)
+                continue
+            after = hit[0]
+            found.append(after)
+            states[hit[1]] = states[hit[1]].model_copy(update={"cause": True})
+        for i, want in enumerate(wanted):
+            if found[i] is not None:
+                continue
+            # the last cause state lasts into the reaction: right before it; an earlier one (the
+            # light still green, the door still closed) as early as its order allows
+            at = first if i == len(wanted) - 1 else next((k + 1 for k in reversed(found[:i]) if k is not None), 0)
+            name = _free_name(set(states), want.actor, want.name)
+            states[(want.actor, name)] = want.model_copy(update={"name": name})
+            before.setdefault(at, []).append(Stage(conditions=[StateRef(actor=want.actor, state=name)]))
+            added.append(f"{want.actor}: {name} ({', '.join(str(c) for c in want.all_of)})")
+    out: list[Stage] = []
+    for k in range(len(stages) + 1):
+        out += before.get(k, [])
+        if k < len(stages):
+            out.append(stages[k])
+    return FSM(states=list(states.values()), stages=out), added
+
+
+__all__ = ["CAUSES_ADDED", "REACTION_PREDICATES", "actor_states", "cause_states", "ego_states", "entails", "is_reaction",
+           "rule_based_fsm", "with_cause_states"]

@@ -1,0 +1,340 @@
+"""The actors of a driving run and how each kind is drawn onto a frame.
+
+:func:`actors_from_trace` turns the trace's tracks into :class:`Actor` arrays with a drawing
+category (from the driving asset database); :class:`Canvas` draws on one frame's map window in
+world coordinates [m]; :func:`draw_actor` draws one actor at one step: vehicles with their lights,
+siren and doors, pedestrians, traffic lights, static objects, and an arrow on the border for an
+actor outside the window. Headings are counter-clockwise from +x [rad], as in
+:class:`regen.core.trace.Trace`.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+from PIL import Image, ImageDraw, ImageFont
+
+from regen.core.trace import Trace
+from regen.driving.render.roads import FRAME_W, MAP_H, View
+from regen.errors import RegenError
+
+log = logging.getLogger(__name__)
+
+__all__ = ["Actor", "Canvas", "actors_from_trace", "draw_actor", "draw_gnss", "text_font"]
+
+# Colors (RGB). The ego's fill is used by nothing else so it can be found in the pictures.
+EGO = (0, 200, 83)
+EGO_OUTLINE = (255, 255, 255)
+EMERGENCY = (250, 250, 250)
+EMERGENCY_OUTLINE = (214, 32, 32)
+VEHICLE = (66, 120, 230)
+PEDESTRIAN = (255, 140, 0)
+STATIC = (150, 104, 70)
+OTHER = (170, 170, 170)
+PARKED = (128, 138, 160)
+OUTLINE = (20, 20, 24)
+BRAKE = (255, 0, 0)
+HAZARD = (255, 190, 0)
+SIREN_RED = (235, 20, 20)
+SIREN_BLUE = (20, 90, 255)
+GNSS = (200, 0, 200)
+LIGHT_COLORS = {"red": (230, 20, 20), "yellow": (250, 200, 0), "amber": (250, 200, 0),
+                "green": (40, 230, 90), "off": (60, 60, 60)}
+
+BODY = {"ego": EGO, "emergency": EMERGENCY, "vehicle": VEHICLE, "parked": PARKED,
+        "pedestrian": PEDESTRIAN, "static": STATIC, "other": OTHER}
+_DRAW_ORDER = {"static": 0, "parked": 0, "traffic_light": 1, "other": 2, "vehicle": 3,
+               "emergency": 4, "pedestrian": 5, "ego": 6}
+_DEFAULT_SIZE = {"pedestrian": (0.6, 0.6), "static": (1.0, 1.0), "traffic_light": (0.6, 0.6)}
+_ON = {"on", "true", "yes", "active", "1", "open", "flashing"}
+_VEHICLES = ("ego", "emergency", "vehicle", "parked", "other")  # categories drawn as a car
+
+
+@dataclass
+class Actor:
+    name: str
+    category: str  # ego, emergency, vehicle, parked, pedestrian, static, traffic_light, other
+    length: float  # [m]
+    width: float  # [m]
+    x: np.ndarray  # [m] per step
+    y: np.ndarray  # [m]
+    heading: np.ndarray  # [rad]
+    speed: np.ndarray  # [m/s]
+    states: dict[str, list]
+
+    def state(self, key: str, i: int):
+        seq = self.states.get(key)
+        return None if seq is None else seq[i]
+
+
+def _is_on(value: object) -> bool:
+    if isinstance(value, bool):
+        return value
+    if isinstance(value, (int, float)):
+        return value != 0
+    return isinstance(value, str) and value.strip().lower() in _ON
+
+
+def _category(name: str, kind: str, asset: str, db) -> str:
+    if name == "ego" or kind == "ego":
+        return "ego"
+    cat = db.category_of(asset) if db is not None else None
+    if cat == "vehicles":
+        spec = db.assets.get(asset)
+        # emergency vehicles are the ones the database gives a siren
+        return "emergency" if spec is not None and "siren" in spec.properties else "vehicle"
+    if cat == "static objects":
+        spec = db.assets.get(asset)
+        # a static object with doors is a parked vehicle: draw it as one (doors, hazards)
+        return "parked" if spec is not None and "door" in spec.properties else "static"
+    return {"pedestrians": "pedestrian", "traffic": "traffic_light",
+            "sensors": "sensor"}.get(cat or "", "other")
+
+
+def _headings(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Headings [rad] from the motion where the trace records none (0 while standing)."""
+    dx, dy = np.diff(x, append=x[-1:]), np.diff(y, append=y[-1:])
+    h = np.arctan2(dy, dx)
+    moving = np.hypot(dx, dy) > 1e-6
+    if not moving.any():
+        return np.zeros_like(x)
+    # carry the last known heading over stops so a parked car does not snap to 0
+    idx = np.where(moving, np.arange(len(x)), 0)
+    np.maximum.accumulate(idx, out=idx)
+    first = int(np.argmax(moving))
+    h[:first] = h[first]
+    return h[idx]
+
+
+def actors_from_trace(trace: Trace) -> list[Actor]:
+    """The trace's drawable actors (sensors left out), in drawing order: the ego last, on top."""
+    try:
+        from regen.driving.assets import database as driving_database
+
+        db = driving_database()
+    except RegenError as exc:  # pictures without categories beat no pictures
+        log.warning("driving asset database unavailable (%s); drawing all actors alike", exc)
+        db = None
+    out = []
+    for name, track in trace.actors.items():
+        cat = _category(name, track.kind, track.asset, db)
+        if cat == "sensor" or not track.x:
+            continue
+        x, y = np.asarray(track.x, float), np.asarray(track.y, float)
+        heading = np.asarray(track.heading, float) if track.heading else _headings(x, y)
+        speed = np.asarray(track.speed, float) if track.speed else np.zeros_like(x)
+        length, width = track.length, track.width
+        if length <= 0 or width <= 0:
+            spec = db.assets.get(track.asset) if db is not None else None
+            length, width = (spec.size[0], spec.size[1]) if spec else _DEFAULT_SIZE.get(cat, (4.5, 2.0))
+        out.append(Actor(name, cat, float(length), float(width), x, y, heading, speed,
+                          dict(track.states)))
+    out.sort(key=lambda a: _DRAW_ORDER.get(a.category, 2))
+    return out
+
+
+@lru_cache(maxsize=8)
+def text_font(size: int, bold: bool = False):
+    """DejaVu Sans from matplotlib's own data (always installed with it), else Pillow's default."""
+    try:
+        import matplotlib
+
+        name = "DejaVuSans-Bold.ttf" if bold else "DejaVuSans.ttf"
+        return ImageFont.truetype(str(Path(matplotlib.get_data_path()) / "fonts" / "ttf" / name), size)
+    except OSError:
+        return ImageFont.load_default(size=size)
+
+
+def _rect(cx, cy, h, length, width, along=0.0, across=0.0):
+    """Corners [m] of a length x width rectangle centred ``along``/``across`` from (cx, cy)."""
+    c, s = math.cos(h), math.sin(h)
+    ox, oy = cx + along * c - across * s, cy + along * s + across * c
+    out = []
+    for a, b in ((0.5, 0.5), (0.5, -0.5), (-0.5, -0.5), (-0.5, 0.5)):
+        u, v = a * length, b * width
+        out.append((ox + u * c - v * s, oy + u * s + v * c))
+    return out
+
+
+class Canvas:
+    """Draws actors onto one cropped background image."""
+
+    def __init__(self, img: Image.Image, view: View, left: int, top: int):
+        self.img = img
+        self.draw = ImageDraw.Draw(img, "RGBA")  # RGBA mode blends translucent fills
+        self.view, self.left, self.top = view, left, top
+        self.labels: list[tuple[float, float, float, float]] = []
+
+    def px(self, x: float, y: float) -> tuple[float, float]:
+        px, py = self.view.to_px(x, y)
+        return float(px) - self.left, float(py) - self.top
+
+    def poly(self, corners, fill, outline=None, width=1):
+        self.draw.polygon([self.px(x, y) for x, y in corners], fill=fill, outline=outline, width=width)
+
+    def disk(self, x, y, r_px, fill, outline=None):
+        px, py = self.px(x, y)
+        self.draw.ellipse([px - r_px, py - r_px, px + r_px, py + r_px], fill=fill, outline=outline)
+
+    def inside(self, x, y, pad=0.0) -> bool:
+        px, py = self.px(x, y)
+        return -pad <= px <= FRAME_W + pad and -pad <= py <= MAP_H + pad
+
+    def label(self, text: str, x: float, y: float, r_px: float, color) -> None:
+        """A name tag above the actor, moved below or aside when it would cover another tag."""
+        font = text_font(11)
+        px, py = self.px(x, y)
+        w = self.draw.textlength(text, font=font) + 6
+        h = 14
+        for dx, dy in ((0, -r_px - h - 2), (0, r_px + 2), (r_px + 4, -h / 2), (-r_px - 4 - w, -h / 2)):
+            # kept inside the map window so a tag at the border stays readable
+            bx = min(max(px - (w / 2 if dx == 0 else 0) + dx, 1), FRAME_W - w - 1)
+            by = min(max(py + dy, 1), MAP_H - h - 1)
+            rect = (bx, by, bx + w, by + h)
+            if not any(_overlap(rect, r) for r in self.labels):
+                break
+        self.labels.append(rect)
+        self.draw.rectangle(rect, fill=(20, 20, 24, 170), outline=(*color, 255))
+        self.draw.text((rect[0] + 3, rect[1] + 1), text, fill=(255, 255, 255), font=font)
+
+
+def _overlap(a, b) -> bool:
+    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+
+
+def _draw_vehicle(f: Canvas, a: Actor, i: int, t: float) -> None:
+    x, y, h = float(a.x[i]), float(a.y[i]), float(a.heading[i])
+    s = f.view.scale
+    length, width = max(a.length, 8 / s), max(a.width, 5 / s)  # never smaller than a few pixels
+    body = BODY.get(a.category, OTHER)
+    siren = _is_on(a.state("siren", i))
+    if siren:  # a glow flashing red/blue twice a second is visible at any zoom
+        glow = SIREN_RED if int(t * 4) % 2 == 0 else SIREN_BLUE
+        f.disk(x, y, 0.75 * length * s, (*glow, 70))
+    if a.category == "ego":  # a halo makes the ego findable at a glance
+        f.disk(x, y, 0.7 * length * s, (*EGO, 60))
+    outline = EMERGENCY_OUTLINE if a.category == "emergency" else (
+        EGO_OUTLINE if a.category == "ego" else OUTLINE)
+    f.poly(_rect(x, y, h, length, width), body, outline, 2 if a.category in ("ego", "emergency") else 1)
+    # windscreen: a dark band in the front third shows which way the vehicle faces
+    f.poly(_rect(x, y, h, 0.14 * length, 0.8 * width, along=0.22 * length), (30, 36, 48))
+    if a.category == "emergency":
+        bar_l = max(0.35, 2.0 / s)
+        left, right = (SIREN_RED, SIREN_BLUE) if int(t * 4) % 2 == 0 else (SIREN_BLUE, SIREN_RED)
+        if not siren:
+            left = right = (120, 120, 120)
+        f.poly(_rect(x, y, h, bar_l, 0.45 * width, across=0.23 * width), left)
+        f.poly(_rect(x, y, h, bar_l, 0.45 * width, across=-0.23 * width), right)
+    band = max(0.3, 2.0 / s)
+    if _is_on(a.state("brake_lights", i)):
+        for side in (0.33, -0.33):
+            f.poly(_rect(x, y, h, band, 0.3 * width, along=-0.5 * length + band / 2,
+                         across=side * width), BRAKE, (120, 0, 0))
+    if _is_on(a.state("hazard_lights", i)) and int(t * 3) % 2 == 0:
+        for along in (0.45, -0.45):
+            for across in (0.45, -0.45):
+                f.disk(x + along * length * math.cos(h) - across * width * math.sin(h),
+                       y + along * length * math.sin(h) + across * width * math.cos(h),
+                       max(2.5, 0.3 * s), HAZARD)
+    if str(a.state("door", i)).lower() == "open":
+        # driver's door, hinged a quarter from the front on the left, swung out 60 degrees
+        hx = x + 0.2 * length * math.cos(h) - 0.5 * width * math.sin(h)
+        hy = y + 0.2 * length * math.sin(h) + 0.5 * width * math.cos(h)
+        door = max(1.0, 6 / s)
+        ang = h + math.pi - math.radians(60)
+        f.draw.line([f.px(hx, hy), f.px(hx + door * math.cos(ang), hy + door * math.sin(ang))],
+                    fill=(255, 230, 0), width=3)
+
+
+def _draw_pedestrian(f: Canvas, a: Actor, i: int) -> None:
+    x, y, h = float(a.x[i]), float(a.y[i]), float(a.heading[i])
+    r = max(4.0, 0.5 * max(a.length, a.width) * f.view.scale)
+    f.disk(x, y, r, PEDESTRIAN, OUTLINE)
+    px, py = f.px(x, y)
+    f.draw.line([(px, py), (px + r * 1.4 * math.cos(h), py - r * 1.4 * math.sin(h))],
+                fill=OUTLINE, width=2)
+
+
+def _draw_static(f: Canvas, a: Actor, i: int) -> None:
+    s = f.view.scale
+    f.poly(_rect(float(a.x[i]), float(a.y[i]), float(a.heading[i]), max(a.length, 5 / s),
+                 max(a.width, 5 / s)), STATIC, OUTLINE)
+
+
+def _draw_light(f: Canvas, a: Actor, i: int) -> None:
+    state = str(a.state("light_state", i) or "off").lower()
+    color = LIGHT_COLORS.get(state, LIGHT_COLORS["off"])
+    r = max(5.0, 0.8 * f.view.scale)
+    px, py = f.px(float(a.x[i]), float(a.y[i]))
+    f.draw.rounded_rectangle([px - r - 3, py - r - 3, px + r + 3, py + r + 3], radius=3,
+                             fill=(25, 25, 25), outline=(240, 240, 240))
+    f.draw.ellipse([px - r, py - r, px + r, py + r], fill=color)
+
+
+def draw_gnss(f: Canvas, a: Actor, i: int) -> None:
+    gx, gy = a.state("gnss_x", i), a.state("gnss_y", i)
+    if not isinstance(gx, (int, float)) or not isinstance(gy, (int, float)):
+        return
+    x, y = float(a.x[i]), float(a.y[i])
+    f.draw.line([f.px(x, y), f.px(gx, gy)], fill=GNSS, width=1)
+    px, py = f.px(gx, gy)
+    f.draw.ellipse([px - 5, py - 5, px + 5, py + 5], outline=GNSS, width=2)
+    f.draw.line([(px - 8, py), (px + 8, py)], fill=GNSS)
+    f.draw.line([(px, py - 8), (px, py + 8)], fill=GNSS)
+    # the tag goes on the far side from the true position so it does not cover the ego
+    tx, ty = f.px(x, y)
+    away = math.atan2(py - ty, px - tx) if (px, py) != (tx, ty) else -math.pi / 2
+    f.draw.text((px + 14 * math.cos(away) - 13, py + 14 * math.sin(away) - 6), "GNSS", fill=GNSS,
+                font=text_font(10))
+
+
+def _draw_offscreen(f: Canvas, a: Actor, i: int) -> None:
+    """An arrow on the border pointing at an actor outside the window, with its distance."""
+    px, py = f.px(float(a.x[i]), float(a.y[i]))
+    cx, cy = FRAME_W / 2, MAP_H / 2
+    ang = math.atan2(py - cy, px - cx)
+    k = min((FRAME_W / 2 - 14) / max(abs(math.cos(ang)), 1e-9),
+            (MAP_H / 2 - 14) / max(abs(math.sin(ang)), 1e-9))
+    ex, ey = cx + k * math.cos(ang), cy + k * math.sin(ang)
+    tip = (ex + 9 * math.cos(ang), ey + 9 * math.sin(ang))
+    side = [(ex + 6 * math.cos(ang + d), ey + 6 * math.sin(ang + d)) for d in (2.2, -2.2)]
+    color = LIGHT_COLORS["off"] if a.category == "traffic_light" else BODY.get(a.category, OTHER)
+    f.draw.polygon([tip, *side], fill=color, outline=OUTLINE)
+    dist = math.hypot(px - cx, py - cy) / f.view.scale
+    text = f"{a.name} {dist:.0f} m"
+    font = text_font(10)
+    w, h = f.draw.textlength(text, font=font) + 4, 13
+    tx = min(max(ex - w / 2, 2), FRAME_W - w - 2)
+    ty = min(max(ey + (10 if ey < cy else -24), 2), MAP_H - h - 2)
+    step = 14 if ty < cy else -14  # stack tags toward the middle instead of overlapping
+    rect = (tx, ty, tx + w, ty + h)
+    for _ in range(12):
+        if not any(_overlap(rect, r) for r in f.labels):
+            break
+        ty += step
+        rect = (tx, ty, tx + w, ty + h)
+    f.labels.append(rect)
+    f.draw.rectangle(rect, fill=(255, 255, 255, 150))
+    f.draw.text((tx + 2, ty), text, fill=(20, 20, 24), font=font)
+
+
+def draw_actor(f: Canvas, a: Actor, i: int, t: float) -> bool:
+    """Actor ``a`` at step ``i`` (simulated time ``t`` [s]), or an arrow to it on the border when
+    it is outside the window; True when the actor itself was drawn."""
+    if not f.inside(float(a.x[i]), float(a.y[i]), pad=2.0 * a.length * f.view.scale):
+        _draw_offscreen(f, a, i)
+        return False
+    if a.category in _VEHICLES:
+        _draw_vehicle(f, a, i, t)
+    elif a.category == "pedestrian":
+        _draw_pedestrian(f, a, i)
+    elif a.category == "traffic_light":
+        _draw_light(f, a, i)
+    else:
+        _draw_static(f, a, i)
+    return True

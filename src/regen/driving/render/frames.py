@@ -1,0 +1,262 @@
+"""One frame of a driving run: the map window around the actors, their name tags, a scale bar
+and a caption with the time, the ego's speed, the verdict and one box per FSM stage.
+
+Also what the frames have in common: the view (fixed, or following the ego on long runs), the
+key-frame picks (start, each FSM stage reached, end) and one GIF palette for all frames.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from PIL import Image, ImageDraw
+
+from regen.core.scenario import Scenario
+from regen.core.trace import Trace
+from regen.core.verdict import Verdict
+from regen.driving.render.actors import (
+    BODY,
+    BRAKE,
+    EGO,
+    EGO_OUTLINE,
+    EMERGENCY,
+    EMERGENCY_OUTLINE,
+    GNSS,
+    HAZARD,
+    LIGHT_COLORS,
+    OTHER,
+    OUTLINE,
+    PARKED,
+    PEDESTRIAN,
+    SIREN_BLUE,
+    SIREN_RED,
+    STATIC,
+    VEHICLE,
+    Actor,
+    Canvas,
+    draw_actor,
+    draw_gnss,
+    text_font,
+)
+from regen.driving.render.roads import (
+    CROSSING,
+    FRAME_H,
+    FRAME_W,
+    GRASS,
+    JUNCTION,
+    MAP_H,
+    MARK_WHITE,
+    MARK_YELLOW,
+    ROAD,
+    SHOULDER,
+    SIDEWALK,
+    View,
+)
+
+__all__ = ["Story", "choose_view", "frame", "keyframe_steps", "palette", "story_of"]
+
+MARGIN = 10.0  # free space around the actors when the view fits them [m]
+MIN_FIT_SCALE = 4.0  # below this [px/m] a fixed view is unreadable; follow the ego instead
+MAX_SCALE = 14.0  # closest zoom [px/m]; a car is then ~65 px long
+FOLLOW_SCALE = 9.0  # zoom of the ego-following view [px/m]: ~71 m x 47 m visible
+MAX_BACKGROUND_PX = 6000  # cap on the pre-rendered background's side [px]
+
+# Colors (RGB) of the caption.
+CAPTION_BG = (28, 30, 36)
+CAPTION_FG = (240, 240, 240)
+STAGE_DONE = (0, 190, 90)
+STAGE_TODO = (90, 92, 100)
+STAGE_FAILED = (220, 50, 50)
+
+
+def choose_view(actors: list[Actor]) -> View:
+    """A fixed view fitting every actor's whole path when that is readable (at least
+    ``MIN_FIT_SCALE`` [px/m]); else a view following the ego over a background around its path."""
+    xs = np.concatenate([a.x for a in actors])
+    ys = np.concatenate([a.y for a in actors])
+    bx0, bx1 = float(xs.min()) - MARGIN, float(xs.max()) + MARGIN
+    by0, by1 = float(ys.min()) - MARGIN, float(ys.max()) + MARGIN
+    fit = min(FRAME_W / (bx1 - bx0), MAP_H / (by1 - by0))
+    if fit >= MIN_FIT_SCALE:
+        scale = min(fit, MAX_SCALE)
+        cx, cy = (bx0 + bx1) / 2, (by0 + by1) / 2
+        hw, hh = FRAME_W / 2 / scale, MAP_H / 2 / scale
+        return View(scale, cx - hw, cy + hh, FRAME_W, MAP_H, None)
+    # Too spread out for one readable picture: follow the ego (or the first mover) and pre-render
+    # the ground around its path, half a window beyond it on each side.
+    lead = next((a for a in actors if a.category == "ego"), None)
+    if lead is None:
+        lead = max(actors, key=lambda a: float(np.ptp(a.x) + np.ptp(a.y)))
+    lx0, lx1, ly0, ly1 = lead.x.min(), lead.x.max(), lead.y.min(), lead.y.max()
+    scale = FOLLOW_SCALE
+    span = max(lx1 - lx0, ly1 - ly0) + FRAME_W / scale
+    if span * scale > MAX_BACKGROUND_PX:  # a very long path: zoom out instead of a huge image
+        scale = MAX_BACKGROUND_PX / span
+    hw, hh = FRAME_W / 2 / scale, MAP_H / 2 / scale
+    x0, x1, y0, y1 = lx0 - hw, lx1 + hw, ly0 - hh, ly1 + hh
+    return View(scale, float(x0), float(y1), int(math.ceil((x1 - x0) * scale)),
+                 int(math.ceil((y1 - y0) * scale)), lead.name)
+
+
+def _draw_scale_bar(f: Canvas) -> None:
+    meters = 10 if f.view.scale >= 5 else 20 if f.view.scale >= 2.5 else 50
+    length = meters * f.view.scale
+    x0, y0 = 10, MAP_H - 12
+    f.draw.rectangle([x0 - 4, y0 - 16, x0 + length + 4, y0 + 6], fill=(255, 255, 255, 170))
+    f.draw.line([(x0, y0), (x0 + length, y0)], fill=(20, 20, 24), width=3)
+    f.draw.text((x0, y0 - 15), f"{meters} m", fill=(20, 20, 24), font=text_font(10))
+
+
+@dataclass(frozen=True)
+class Story:
+    """What the caption needs: the scenario's name, the stages and the verdict."""
+
+    title: str
+    map_name: str
+    stages: list[tuple[int, float | None, str]]  # index, reached_at [s], 'actor: state, ...'
+    status: str
+    failed_stage: int | None
+    t_end: float
+
+
+def story_of(scenario: Scenario, trace: Trace, verdict: Verdict) -> Story:
+    """What the caption tells: the verdict's stages, or the FSM's when the verdict has none."""
+    stages = [(s.index, s.reached_at, ", ".join(s.conditions)) for s in verdict.stages]
+    if not stages:  # a verdict without stage results: list the FSM's stages, none reached
+        stages = [(k + 1, None, ", ".join(f"{c.actor}: {c.state}" for c in st.conditions))
+                  for k, st in enumerate(scenario.fsm.stages)]
+    return Story(scenario.id, str(trace.meta.get("map", scenario.world.get("map", ""))), stages,
+                  verdict.status, verdict.first_unmet_stage, float(trace.times[-1]))
+
+
+def _fit(draw: ImageDraw.ImageDraw, text: str, font, width: float) -> str:
+    if draw.textlength(text, font=font) <= width:
+        return text
+    while text and draw.textlength(text + "…", font=font) > width:
+        text = text[:-1]
+    return text + "…"
+
+
+def _caption(img: Image.Image, story: Story, t: float, ego_speed: float | None) -> None:
+    draw = ImageDraw.Draw(img)
+    draw.rectangle([0, MAP_H, FRAME_W, FRAME_H], fill=CAPTION_BG)
+    big, small = text_font(13, bold=True), text_font(11)
+    y1, y2 = MAP_H + 6, MAP_H + 31
+    left = f"t = {t:5.1f} s / {story.t_end:.1f} s"
+    if ego_speed is not None:
+        left += f"   ego {ego_speed:4.1f} m/s"
+    draw.text((8, y1), left, fill=CAPTION_FG, font=big)
+    ok = story.status == "verified"
+    status = story.status.replace("_", " ")
+    if story.failed_stage is not None and not ok:
+        status += f" (stage {story.failed_stage} unmet)"
+    sw = draw.textlength(status, font=small)
+    draw.text((FRAME_W - sw - 8, y1 + 2), status, fill=STAGE_DONE if ok else STAGE_FAILED, font=small)
+    # one box per FSM stage: green once reached, red for the stage that never was (at the end)
+    x = 8
+    current = None
+    at_end = t >= story.t_end - 1e-9
+    for index, reached, _ in story.stages:
+        done = reached is not None and reached <= t + 1e-9
+        if done:
+            current = (index, reached)
+        fill = STAGE_DONE if done else (STAGE_FAILED if at_end and index == story.failed_stage
+                                        else STAGE_TODO)
+        draw.rectangle([x, y2, x + 16, y2 + 16], fill=fill, outline=(200, 200, 200))
+        num = str(index)
+        draw.text((x + 8 - draw.textlength(num, font=small) / 2, y2 + 2), num, fill=(255, 255, 255),
+                  font=small)
+        x += 20
+    if current is None:
+        text = "no stage reached yet" if story.stages else "no FSM stages"
+    else:
+        conds = next(c for k, _, c in story.stages if k == current[0])
+        text = f"stage {current[0]}/{len(story.stages)} at {current[1]:.1f} s: {conds}"
+    draw.text((x + 6, y2 + 1), _fit(draw, text, small, FRAME_W - x - 14), fill=CAPTION_FG, font=small)
+
+
+def frame(bg: Image.Image, view: View, actors: list[Actor], story: Story, times: np.ndarray,
+           i: int, title: str | None = None) -> Image.Image:
+    """One full frame (map window and caption) at step ``i``."""
+    lead = next((a for a in actors if a.name == view.follow), None)
+    if lead is not None:
+        left, top = view.window(float(lead.x[i]), float(lead.y[i]))
+    else:
+        left, top = 0, 0
+    img = Image.new("RGB", (FRAME_W, FRAME_H), GRASS)
+    img.paste(bg.crop((left, top, left + FRAME_W, top + MAP_H)), (0, 0))
+    f = Canvas(img, view, left, top)
+    t = float(times[i])
+    ego = next((a for a in actors if a.category == "ego"), None)
+    if ego is not None and i > 0:  # the ego's path so far
+        pts = [f.px(float(px), float(py)) for px, py in zip(ego.x[: i + 1], ego.y[: i + 1], strict=True)]
+        f.draw.line(pts, fill=(*EGO, 150), width=2)
+    shown = []
+    for a in actors:
+        if draw_actor(f, a, i, t):
+            shown.append(a)
+    if ego is not None:
+        draw_gnss(f, ego, i)
+    for a in reversed(shown):  # ego first: its tag gets the best spot
+        r = 0.5 * max(a.length, a.width) * view.scale + 2
+        color = BODY.get(a.category, (240, 240, 240))
+        f.label(a.name, float(a.x[i]), float(a.y[i]), r, color)
+    _draw_scale_bar(f)
+    if title:
+        font = text_font(13, bold=True)
+        w = f.draw.textlength(title, font=font)
+        f.draw.rectangle([0, 0, w + 12, 20], fill=(20, 20, 24, 200))
+        f.draw.text((6, 2), title, fill=(255, 255, 255), font=font)
+    _caption(img, story, t, float(ego.speed[i]) if ego is not None else None)
+    return img
+
+
+def keyframe_steps(times: np.ndarray, story: Story, count: int) -> list[tuple[int, str]]:
+    """Start, the step where each FSM stage was reached, and the end (4-``count`` tiles)."""
+    n = len(times)
+    picks: dict[int, str] = {0: "start"}
+    reached = [(k, r) for k, r, _ in story.stages if r is not None]
+    if len(reached) > count - 2:  # too many stages: keep evenly spread ones
+        sel = np.linspace(0, len(reached) - 1, count - 2).round().astype(int)
+        reached = [reached[j] for j in sorted(set(sel))]
+    for k, r in reached:
+        i = int(min(np.searchsorted(times, r - 1e-9), n - 1))
+        picks.setdefault(i, f"stage {k} reached")
+    picks.setdefault(n - 1, "end")
+    target = min(4, n)
+    while len(picks) < target:  # fill the widest gap so the strip shows the whole run
+        idx = sorted(picks)
+        gaps = [(idx[j + 1] - idx[j], j) for j in range(len(idx) - 1)]
+        width, j = max(gaps)
+        if width < 2:
+            break
+        picks[idx[j] + width // 2] = "during"
+    return sorted(picks.items())[:count]
+
+
+def palette(bg: Image.Image) -> Image.Image:
+    """One palette for every frame: the style's exact colors plus the map's own shades."""
+    fixed = [GRASS, ROAD, JUNCTION, SIDEWALK, CROSSING, SHOULDER, MARK_WHITE, MARK_YELLOW, EGO, PARKED,
+             EGO_OUTLINE, EMERGENCY, EMERGENCY_OUTLINE, VEHICLE, PEDESTRIAN, STATIC, OTHER, OUTLINE,
+             BRAKE, HAZARD, SIREN_RED, SIREN_BLUE, GNSS, CAPTION_BG, CAPTION_FG, STAGE_DONE,
+             STAGE_TODO, STAGE_FAILED, (30, 36, 48), (255, 230, 0), (0, 0, 0), (255, 255, 255),
+             (120, 0, 0), (25, 25, 25), (60, 60, 60), (120, 120, 120), (200, 200, 200),
+             *LIGHT_COLORS.values()]
+    fixed = list(dict.fromkeys(fixed))
+    # translucent overlays (halo, glow, tags) blend style colors into the ground: sample them
+    blends = []
+    for c in (EGO, SIREN_RED, SIREN_BLUE, (20, 20, 24)):
+        for g in (GRASS, ROAD, SIDEWALK, JUNCTION):
+            for w in (0.25, 0.6):
+                blends.append(tuple(int(round(w * a + (1 - w) * b)) for a, b in zip(c, g, strict=True)))
+    fixed += [b for b in dict.fromkeys(blends) if b not in fixed]
+    rest = 256 - len(fixed)
+    sample = bg.resize((min(bg.width, 800), min(bg.height, 600)))
+    shades = sample.quantize(colors=rest, method=Image.Quantize.MEDIANCUT).getpalette()[: 3 * rest]
+    flat = [v for c in fixed for v in c] + shades
+    flat += [0] * (768 - len(flat))
+    pal = Image.new("P", (1, 1))
+    pal.putpalette(flat)
+    return pal

@@ -1,0 +1,90 @@
+"""Pictures of a driving run: a bird's-eye GIF and a strip of key frames (PNG).
+
+The road is drawn once from the OpenDRIVE map into a background image
+(:mod:`regen.driving.render.roads`); each frame then crops that background and draws only the
+actors (:mod:`regen.driving.render.actors`) and a caption (:mod:`regen.driving.render.frames`)
+with Pillow, which keeps drawing far cheaper than the simulation it shows. The files are written
+by the shared media writer (:mod:`regen.media`).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from regen import media
+from regen.contract import ANIMATION, KEYFRAMES
+from regen.core.scenario import Scenario
+from regen.core.trace import Trace
+from regen.core.verdict import Verdict
+from regen.driving.render.actors import actors_from_trace
+from regen.driving.render.frames import choose_view, frame, keyframe_steps, palette, story_of
+from regen.driving.render.roads import background, map_layers
+from regen.errors import ConfigError
+
+log = logging.getLogger(__name__)
+
+__all__ = ["render_scenario", "RenderOptions"]
+
+ANIMATION_FILE = "bird_eye.gif"
+KEYFRAMES_FILE = "keyframes.png"
+MAX_FRAMES = 200  # more frames than this only make the GIF bigger, not clearer
+KEYFRAME_GAP = 4  # [px] between tiles of the key-frame strip
+
+
+@dataclass(frozen=True)
+class RenderOptions:
+    """Knobs of the pictures; the defaults give a ~640x480 GIF at 10 frames per simulated second."""
+
+    fps: float = 10.0  # frames per simulated second [1/s]
+    max_frames: int = MAX_FRAMES
+    keyframes: int = 6  # at most this many tiles in the strip (at least 4 when the trace allows)
+
+    @property
+    def animation(self) -> media.AnimationSettings:
+        """The GIF's frame picks: played in simulated real time."""
+        return media.AnimationSettings(max_frames=self.max_frames, fps=self.fps)
+
+
+def scene(scenario: Scenario, trace: Trace, what: str):
+    """What every picture of a trace is drawn from: (actors, times [s], view, background).
+    ConfigError naming ``what`` for a trace without steps or drawable actors."""
+    if trace.steps == 0:
+        raise ConfigError(f"{what}: the trace has no steps; nothing to draw")
+    actors = actors_from_trace(trace)
+    if not actors:
+        raise ConfigError(f"{what}: the trace has no drawable actors")
+    view = choose_view(actors)
+    return actors, np.asarray(trace.times, float), view, background(map_layers(scenario, trace), view)
+
+
+def render_scenario(scenario: Scenario, trace: Trace, verdict: Verdict, out_dir: Path,
+                    options: RenderOptions | None = None) -> dict[str, Path]:
+    """Draw a driving run: ``bird_eye.gif`` and ``keyframes.png`` in ``out_dir``.
+
+    The GIF plays in simulated real time at about ``options.fps`` frames per simulated second
+    (at most ``options.max_frames`` frames) at 640x480 px; the strip shows 4-6 frames of
+    640x480 px side by side (start, each FSM stage reached, end) separated by 4 px.
+    Returns ``{ANIMATION: gif path, KEYFRAMES: png path}`` (roles of :mod:`regen.domains`).
+    A trace without steps or actors raises :class:`ConfigError`; a map that cannot be read is
+    drawn as plain ground with a warning.
+    """
+    options = options or RenderOptions()
+    out_dir = Path(out_dir)
+    actors, times, view, bg = scene(scenario, trace, f"scenario {scenario.id!r}")
+    story = story_of(scenario, trace, verdict)
+
+    steps = media.animation_steps(times, options.animation)
+    gif = media.write_gif(out_dir / ANIMATION_FILE,
+                          (frame(bg, view, actors, story, times, i) for i in steps),
+                          media.frame_ms(times, steps, options.animation), palette=palette(bg))
+
+    picks = keyframe_steps(times, story, max(1, options.keyframes))
+    tiles = [frame(bg, view, actors, story, times, i, title=title) for i, title in picks]
+    png = media.write_png(out_dir / KEYFRAMES_FILE, media.strip(tiles, gap_px=KEYFRAME_GAP))
+    log.info("rendered %s: %d GIF frames (%.0f kB), %d key frames", scenario.id, len(steps),
+             gif.stat().st_size / 1024, len(tiles))
+    return {ANIMATION: gif, KEYFRAMES: png}

@@ -1,0 +1,136 @@
+"""Write a driving scenario as a Scenic program (Newtonian driving model, 2D, render off).
+
+Nothing a model or user wrote reaches the program as code: actor names are whitelisted into
+identifiers, numbers are formatted from floats, trigger kinds are checked against
+:data:`regen.driving.world.triggers.KINDS`, the trigger functions are this package's own source
+(:func:`regen.driving.world.triggers.scenic_source`), and free text (the narrative) is written as a
+Python string literal (``repr``), with lone surrogates replaced first: a JSON escape would split
+an emoji into two lone surrogates inside the program.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from functools import lru_cache
+from importlib import resources
+
+import jinja2
+
+from regen.driving.world.plan import ActorPlan, LaneChange
+from regen.driving.world.triggers import KINDS, Trigger, scenic_source
+from regen.errors import ConfigError
+
+_IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,63}$")
+_SCENIC_CLASSES = {"Car", "Pedestrian", "Object"}
+_SCENIC_BEHAVIORS = {"", "FollowRoute", "WalkRoute"}  # those program.scenic.j2 defines
+
+
+def scenic_identifier(name: str) -> str:
+    """The Scenic variable for an actor name ('ego' stays 'ego'); other names are prefixed."""
+    if name == "ego":
+        return "ego"
+    cleaned = re.sub(r"[^A-Za-z0-9_]", "_", name)
+    ident = f"a_{cleaned}"
+    if not _IDENT.match(ident):
+        raise ConfigError(f"actor name {name!r} cannot be written as a Scenic identifier; use "
+                          "letters, digits and underscores (at most 60 characters)")
+    return ident
+
+
+def _literal(text: str) -> str:
+    """``text`` as one safe string literal of the program (quotes and controls escaped)."""
+    whole = text.encode("utf-16", "surrogatepass").decode("utf-16", "replace")  # pairs joined, lone ones replaced
+    return repr(whole)
+
+
+def _num(v: float) -> str:
+    v = float(v)
+    if not math.isfinite(v):
+        raise ConfigError(f"a non-finite number ({v}) cannot be written into a Scenic program")
+    return repr(round(v, 4))
+
+
+def _points(route: list[tuple[float, float]]) -> str:
+    return "[" + ", ".join(f"({_num(x)}, {_num(y)})" for x, y in route) + "]"
+
+
+def _schedule(schedule: list[tuple[float, float, float]]) -> str:
+    return "[" + ", ".join(f"({_num(t)}, {_num(s)}, {_num(b)})" for t, s, b in schedule) + "]"
+
+
+def _trigger(trigger: Trigger | None) -> str:
+    if trigger is None:
+        return "None"
+    if trigger.kind not in KINDS:
+        raise ConfigError(f"unknown trigger kind {trigger.kind!r}; choose one of: {', '.join(KINDS)}")
+    kind, *numbers = trigger.spec()
+    return "(" + ", ".join([repr(kind)] + [_num(v) for v in numbers]) + ")"
+
+
+def _lane_change(lane_change: LaneChange | None) -> str:
+    if lane_change is None:
+        return "None"
+    return "(" + ", ".join(_num(v) for v in lane_change.spec()) + ")"
+
+
+@lru_cache(maxsize=1)
+def _template() -> jinja2.Template:
+    text = resources.files("regen.driving.simulation").joinpath("program.scenic.j2").read_text("utf-8")
+    env = jinja2.Environment(autoescape=False, undefined=jinja2.StrictUndefined,
+                             keep_trailing_newline=True)
+    return env.from_string(text)
+
+
+def write_program(plans: list[ActorPlan], *, map_path: str, dt: float, max_steps: int,
+                  narrative: str = "", seed: int = 0, title: str = "regen scenario") -> str:
+    """The Scenic program text for ``plans`` (the ego first) on the map at ``map_path``.
+
+    ``dt`` is the step [s]; ``max_steps`` the number of steps the scenario is meant to run.
+    Sensors (``cls == ''``) are not Scenic objects and are left out.
+    """
+    actors = []
+    seen: set[str] = set()
+    ordered = sorted(plans, key=lambda p: p.name != "ego")  # Scenic wants the ego first
+    if not ordered or ordered[0].name != "ego":
+        raise ConfigError("a driving scenario needs an actor named 'ego'")
+    for p in ordered:
+        if not p.cls:
+            continue
+        if p.cls not in _SCENIC_CLASSES:
+            raise ConfigError(f"actor {p.name!r}: unknown Scenic class {p.cls!r}")
+        if p.scenic_behavior not in _SCENIC_BEHAVIORS:
+            raise ConfigError(f"actor {p.name!r}: unknown Scenic behavior {p.scenic_behavior!r}")
+        if p.lane_change is not None and p.trigger is None:
+            raise ConfigError(f"actor {p.name!r}: a lane change is laid out when a trigger fires; it has none")
+        var = scenic_identifier(p.name)
+        if var in seen:
+            raise ConfigError(f"two actors map to the Scenic identifier {var!r}; rename one")
+        seen.add(var)
+        # Scenic measures headings from +y; the plan measures them from +x
+        scenic_heading = math.degrees(p.heading) - 90.0
+        behavior = p.scenic_behavior if p.dynamic else ""
+        actors.append({
+            "var": var,
+            "cls": p.cls,
+            "name": _literal(p.name),
+            "comment": " ".join(f"{p.name}: {p.asset}. {p.comment}".split())[:200],
+            "x": _num(p.x), "y": _num(p.y), "heading": _num(scenic_heading),
+            "length": _num(max(p.length, 0.1)), "width": _num(max(p.width, 0.1)),
+            "speed": p.speed0 > 0 and p.cls == "Car",
+            "vx": _num(p.speed0 * math.cos(p.heading)), "vy": _num(p.speed0 * math.sin(p.heading)),
+            "behavior": behavior,
+            # a lane-changing car follows its lane until its trigger lays the change out
+            "route": _points(p.lane_change.lane_line(p.x, p.y) if p.lane_change else p.route)
+            if behavior else "",
+            "schedule": _schedule(p.schedule) if behavior else "",
+            "trigger": _trigger(p.trigger) if behavior else "",
+            "lane_change": _lane_change(p.lane_change),
+        })
+    return _template().render(
+        title=" ".join(re.sub(r"[^A-Za-z0-9 _.,:;()-]", " ", title).split())[:200],
+        map_path=_literal(str(map_path)),
+        narrative=_literal(" ".join(narrative.split())),
+        seed=int(seed), dt=_num(dt), max_steps=int(max_steps), actors=actors,
+        trigger_source=scenic_source(),
+    )

@@ -1,0 +1,359 @@
+"""A driving policy in the loop: the ego of a grounded scenario driven by a policy, not its template.
+
+The scenario's Scenic program is written as usual except that the ego has no Scenic behavior;
+a subclass of Scenic's Newtonian simulation asks the policy for an action before every physics
+step and turns it into the ego's throttle, brake and steering (see
+:mod:`regen.driving.testing.policies` for the action's meaning), then records every object as
+:mod:`regen.driving.simulation.run` does. Every other actor runs its scripted Scenic behavior, its
+cause action set off by what this ego does (:mod:`regen.driving.world.triggers`); the property states
+the policy observes run on the same warped clocks, from the ego at the same step.
+
+A policy that raises, returns something that is not a finite action, or takes longer than the
+per-step timeout ends the episode there: the result carries the reason and the trace up to that
+step, never an exception.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+import random
+import signal
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from regen.core.scenario import Scenario
+from regen.core.trace import Trace
+from regen.driving.simulation.run import snapshot
+from regen.driving.testing.policies import (
+    MAX_ACCEL,
+    MAX_BRAKE,
+    ROUTE_AHEAD,
+    ActorState,
+    EgoState,
+    Observation,
+    as_action,
+)
+from regen.driving.world.plan import ActorPlan
+from regen.driving.world.triggers import warped_time
+from regen.errors import SimulationError
+
+STEP_TIMEOUT = 1.0  # default wall time a policy may take per step [s]
+BRAKE_LIGHT_DECEL = 1.0  # as regen.driving.simulation.record: brake lights show above this decel [m/s^2]
+VISIBLE = ("light_state", "siren", "brake_lights", "hazard_lights", "door")
+
+
+@dataclass
+class PolicyRun:
+    """One episode of a policy on a scenario."""
+
+    trace: Trace | None  # up to the step where it ended; None if nothing ran
+    failure: str | None = None  # why the policy failed ('policy raised ...', 'timeout ...', ...)
+    failure_kind: str | None = None  # 'exception', 'invalid_action', 'timeout'
+    failure_time: float | None = None  # [s]
+    steps: int = 0  # physics steps simulated
+    timings: dict[str, float] = field(default_factory=dict)  # 'compile', 'simulate', 'policy' [s]
+
+
+class PolicyFailure(Exception):
+    def __init__(self, kind: str, reason: str):
+        super().__init__(reason)
+        self.kind, self.reason = kind, reason
+
+
+@dataclass
+class Prepared:
+    """What every episode of one scenario shares: plans, the compiled program, the map."""
+
+    scenario: Scenario
+    plans: list[ActorPlan]
+    template: object  # regen.driving.world.ego.EgoTemplate
+    compiled: object  # scenic Scenario
+    dt: float  # [s]
+    steps: int
+    seed: int
+    map_name: str
+    map_path: str
+    compile_time: float  # [s]
+
+
+_COMPILED: dict[str, object] = {}  # program text -> compiled Scenic scenario (compiling takes ~1-2 s)
+
+
+def prepare(scenario: Scenario) -> Prepared:
+    """Plans and the compiled Scenic program with a behavior-less ego (cached per program)."""
+    from regen.driving.grounding.rules import plans_for
+    from regen.driving.simulation.program import write_program
+    from regen.driving.simulation.run import compile_program
+    from regen.driving.world.maps import ensure_map
+
+    template, plans = plans_for(scenario)
+    plans = [dataclasses.replace(p, scenic_behavior="", schedule=[]) if p.name == "ego" else p
+             for p in plans]
+    dt = float(scenario.world.get("dt", 0.1))  # as regen.driving.backend
+    steps = int(round(float(scenario.world.get("duration", 16.0)) / dt))
+    seed = int(scenario.world.get("seed", 0))
+    name = str(scenario.world["map"])
+    map_path = str(ensure_map(name))
+    text = write_program(plans, map_path=map_path, dt=dt, max_steps=steps,
+                         narrative=scenario.narrative, seed=seed, title=scenario.behavior.text)
+    t0 = time.perf_counter()
+    if text not in _COMPILED:
+        if len(_COMPILED) >= 16:
+            _COMPILED.pop(next(iter(_COMPILED)))
+        _COMPILED[text] = compile_program(text)
+    return Prepared(scenario=scenario, plans=plans, template=template, compiled=_COMPILED[text],
+                    dt=dt, steps=steps, seed=seed, map_name=name, map_path=map_path,
+                    compile_time=time.perf_counter() - t0)
+
+
+def _category(p: ActorPlan) -> str:
+    if p.cls == "Pedestrian":
+        return "pedestrian"
+    if p.asset == "traffic_light":
+        return "light"
+    return "static" if p.kind == "object" else "vehicle"
+
+
+def _at(schedule: list[tuple[float, str]], t: float) -> str | None:
+    val = None
+    for t_from, v in schedule:
+        if t >= t_from - 1e-9:
+            val = v
+    return val
+
+
+class _Timeout(BaseException):
+    """Raised inside a policy by the step alarm (BaseException: a policy's ``except Exception``
+    must not swallow it)."""
+
+
+def _alarm(signum, frame):
+    raise _Timeout
+
+
+def _call_with_timeout(fn: Callable, arg: object, timeout: float | None) -> object:
+    """fn(arg), stopped after ``timeout`` [s]: PolicyFailure('timeout'); any exception of fn:
+    PolicyFailure('exception').
+
+    On POSIX an interval timer (SIGALRM) interrupts the policy (costs microseconds; Scenic
+    itself needs the main thread and uses SIGALRM only while its own behaviors run, not here);
+    elsewhere the policy runs in a daemon thread that is abandoned on timeout.
+    """
+    if timeout is None:
+        try:
+            return fn(arg)
+        except Exception as exc:
+            raise PolicyFailure("exception", f"the policy raised {type(exc).__name__}: {exc}") from None
+    too_slow = PolicyFailure("timeout", f"the policy took longer than the step timeout of {timeout:g} s")
+    if hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGALRM, _alarm)
+        try:
+            signal.setitimer(signal.ITIMER_REAL, timeout)
+            try:
+                return fn(arg)
+            finally:
+                signal.setitimer(signal.ITIMER_REAL, 0)
+        except _Timeout:
+            raise too_slow from None
+        except Exception as exc:
+            raise PolicyFailure("exception", f"the policy raised {type(exc).__name__}: {exc}") from None
+        finally:
+            signal.signal(signal.SIGALRM, previous)
+    box: dict[str, object] = {}
+
+    def work() -> None:
+        try:
+            box["value"] = fn(arg)
+        except BaseException as exc:  # noqa: BLE001 - reported as the policy's failure
+            box["error"] = exc
+
+    th = threading.Thread(target=work, daemon=True, name="regen-policy")
+    th.start()
+    th.join(timeout)
+    if th.is_alive():
+        raise too_slow
+    if "error" in box:
+        exc = box["error"]
+        raise PolicyFailure("exception", f"the policy raised {type(exc).__name__}: {exc}")
+    return box.get("value")
+
+
+class _Driver:
+    """The Python side of the loop: observes the Scenic objects, asks the policy, records."""
+
+    def __init__(self, prep: Prepared, policy: Callable, step_timeout: float | None):
+        self.prep, self.policy, self.step_timeout = prep, policy, step_timeout
+        self.by_name = {p.name: p for p in prep.plans}
+        t = prep.template
+        self.route = list(t.route)
+        self.route_idx = 0
+        self.cruise = max([t.speed0] + [s for _, s, _ in t.schedule])
+        self.log: list[list[tuple[float, float, float, float]]] = []
+        self.names: list[str] = []
+        self.policy_time = 0.0
+        self.t_fire: dict[str, float | None] = {}  # actor -> when its trigger fired [s]
+
+    # recording, as regen.driving.simulation.run does
+    def record(self, sim) -> None:
+        if not self.names:
+            self.names = [getattr(o, "name", f"obj{i}") for i, o in enumerate(sim.objects)]
+        self.log.append(snapshot(sim.objects))
+
+    def _route_ahead(self, x: float, y: float, h: float) -> tuple[tuple[float, float], ...]:
+        c, s = math.cos(h), math.sin(h)
+        r = self.route
+        while self.route_idx < len(r) - 1 and (
+                (r[self.route_idx][0] - x) * c + (r[self.route_idx][1] - y) * s < 0.5):
+            self.route_idx += 1
+        out = []
+        for px, py in r[self.route_idx:]:
+            if math.hypot(px - x, py - y) > ROUTE_AHEAD:
+                break
+            out.append((px, py))
+        return tuple(out)
+
+    def observe(self, sim) -> Observation:
+        t = sim.currentTime * self.prep.dt
+        actors = []
+        ego = None
+        eo = sim.objects[self.names.index("ego")] if "ego" in self.names else None
+        ego_now = ((float(eo.position.x), float(eo.position.y), float(math.hypot(eo.velocity.x, eo.velocity.y)))
+                   if eo is not None else None)
+        for i, o in enumerate(sim.objects):
+            name = self.names[i]
+            h = float(o.heading) + math.pi / 2  # Scenic measures headings from +y
+            if name == "ego":
+                ego = EgoState(x=float(o.position.x), y=float(o.position.y),
+                               heading=math.atan2(math.sin(h), math.cos(h)),
+                               speed=float(math.hypot(o.velocity.x, o.velocity.y)),
+                               length=float(o.length), width=float(o.width), cruise_speed=self.cruise,
+                               route_ahead=self._route_ahead(float(o.position.x), float(o.position.y), h))
+                continue
+            p = self.by_name.get(name)
+            if p is None or not p.cls:
+                continue
+            clock = t
+            if p.trigger is not None and ego_now is not None:
+                self.t_fire[name], clock = warped_time(p.trigger.spec(), self.t_fire.get(name), t, *ego_now)
+            vis = {k: _at(p.states[k], clock) for k in VISIBLE if k in p.states}
+            if p.cls == "Car" and p.kind != "object" and len(self.log) >= 2:
+                decel = (self.log[-2][i][3] - self.log[-1][i][3]) / self.prep.dt
+                broken = p.states.get("brake_lights", [(0.0, "")])[-1][1] == "broken"
+                vis["brake_lights"] = "on" if decel > BRAKE_LIGHT_DECEL and not broken else "off"
+            actors.append(ActorState(name=name, category=_category(p), asset=p.asset,
+                                     x=float(o.position.x), y=float(o.position.y),
+                                     heading=math.atan2(math.sin(h), math.cos(h)),
+                                     vx=float(o.velocity.x), vy=float(o.velocity.y),
+                                     length=p.length, width=p.width, **vis))
+        if ego is None:
+            raise SimulationError("the Scenic program has no object named 'ego'")
+        return Observation(t=round(t, 6), dt=self.prep.dt, ego=ego, actors=tuple(actors))
+
+    def act(self, sim) -> None:
+        """Ask the policy and set the ego's controls; PolicyFailure on any fault of the policy."""
+        obs = self.observe(sim)
+        t0 = time.perf_counter()
+        raw = _call_with_timeout(self.policy, obs, self.step_timeout)
+        self.policy_time += time.perf_counter() - t0
+        try:
+            action = as_action(raw)
+        except ValueError as exc:
+            raise PolicyFailure("invalid_action", str(exc)) from None
+        ego = sim.objects[self.names.index("ego")]
+        a = action.acceleration
+        ego.throttle = min(1.0, a / MAX_ACCEL) if a > 0 else 0.0
+        ego.brake = min(1.0, -a / MAX_BRAKE) if a < 0 else 0.0
+        # Newtonian: heading rate = -speed * sin(steer * pi/2) / length; we want speed * curvature
+        k = max(-1.0, min(1.0, action.curvature * float(ego.length)))
+        ego.steer = -math.asin(k) * 2.0 / math.pi
+
+
+@functools.cache
+def _simulator_class():
+    from regen.driving.simulation.run import _scenic
+
+    _, newtonian = _scenic()
+
+    class PolicySimulation(newtonian.NewtonianSimulation):
+        def __init__(self, scene, network, driver, **kwargs):
+            self.regen_driver = driver  # before super().__init__: it runs the whole simulation
+            super().__init__(scene, network, False, False, False, **kwargs)
+
+        def setup(self):
+            super().setup()
+            self.regen_driver.record(self)
+
+        def step(self):
+            self.regen_driver.act(self)
+            super().step()
+            self.regen_driver.record(self)
+
+    class PolicySimulator(newtonian.NewtonianSimulator):
+        def __init__(self, driver):
+            super().__init__()
+            self.regen_driver = driver
+
+        def createSimulation(self, scene, **kwargs):
+            return PolicySimulation(scene, self.network, self.regen_driver, **kwargs)
+
+    return PolicySimulator
+
+
+def run_policy(scenario: Scenario | Prepared, policy: Callable, *,
+               step_timeout: float | None = STEP_TIMEOUT, steps: int | None = None) -> PolicyRun:
+    """Simulate ``scenario`` with its ego driven by ``policy`` (see :mod:`regen.driving.testing.policies`).
+
+    ``step_timeout`` [s] per policy call (None: no limit, no thread); ``steps`` overrides the
+    scenario's duration. Policy faults end the episode with ``failure`` set; scenario and
+    simulator faults raise :class:`~regen.errors.SimulationError` as in the normal pipeline.
+    """
+    from regen.driving.simulation.record import build_trace
+    from regen.driving.simulation.run import raw_run
+    from regen.driving.world.maps import geometry
+
+    prep = scenario if isinstance(scenario, Prepared) else prepare(scenario)
+    n_steps = int(steps if steps is not None else prep.steps)
+    if hasattr(policy, "reset"):
+        policy.reset()
+    driver = _Driver(prep, policy, step_timeout)
+    random.seed(prep.seed)
+    np.random.seed(prep.seed)
+    try:
+        scene, _ = prep.compiled.generate(maxIterations=1, verbosity=0)
+    except Exception as exc:
+        raise SimulationError(f"Scenic could not place the actors: {type(exc).__name__}: {exc}") from exc
+    failure: PolicyFailure | None = None
+    t0 = time.perf_counter()
+    try:
+        sim = _simulator_class()(driver).simulate(scene, maxSteps=n_steps, timestep=prep.dt,
+                                                   verbosity=0, raiseGuardViolations=False)
+        if sim is None:
+            raise SimulationError("the Newtonian simulation was rejected (a requirement failed)")
+    except PolicyFailure as exc:
+        failure = exc
+    except SimulationError:
+        raise
+    except Exception as exc:
+        raise SimulationError(f"the Newtonian simulation failed: {type(exc).__name__}: {exc}") from exc
+    t1 = time.perf_counter()
+    timings = {"compile": prep.compile_time, "simulate": t1 - t0, "policy": driver.policy_time}
+    if not driver.log:
+        return PolicyRun(trace=None, failure=failure.reason if failure else "nothing was simulated",
+                         failure_kind=failure.kind if failure else "exception", failure_time=0.0,
+                         timings=timings)
+    run = raw_run(driver.log, driver.names, prep.dt, {})
+    trace = build_trace(run, prep.plans, geometry(prep.map_name), map_path=prep.map_path,
+                        seed=prep.seed, meta={"scenario": prep.scenario.id, "ego": "policy"})
+    return PolicyRun(trace=trace, failure=failure.reason if failure else None,
+                     failure_kind=failure.kind if failure else None,
+                     failure_time=run.times[-1] if failure else None,
+                     steps=len(driver.log) - 1, timings=timings)
+
+
+__all__ = ["STEP_TIMEOUT", "PolicyFailure", "PolicyRun", "Prepared", "prepare", "run_policy"]

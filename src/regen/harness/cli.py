@@ -1,0 +1,109 @@
+"""``regen test RUN_DIR --policy SPEC``: a run's driving scenarios as behavior tests of a policy.
+
+A thin layer over :func:`regen.driving.testing.cases.run_tests`. Mounted by :mod:`regen.cli`
+(``app.command("test")(test_command)``). Exit code: 0 when every test passed (or was skipped),
+1 when any failed, 2 for a bad SPEC, folder or option.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.markup import escape
+
+from regen.core.text import clean
+from regen.errors import RegenError
+
+_STYLE = {"PASS": "green", "FAIL": "red", "SKIP": "yellow"}
+
+
+def default_out(run_dir: Path, policy: str) -> Path:
+    """RUN_DIR/tests/<policy as a file name>: one folder per policy tested."""
+    from regen.runfolder import RunFolder
+
+    where, _, attr = policy.rpartition(":")
+    name = f"{Path(where).stem}-{attr}" if where else policy
+    safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("._") or "policy"
+    return Path(run_dir) / RunFolder.TESTS / safe
+
+
+def test_command(
+    run_dir: Annotated[Path, typer.Argument(help="A run folder made by regen generate.", show_default=False)],
+    policy: Annotated[str, typer.Option(
+        "--policy", "-p", help="constant-speed, idm, aeb, module:callable or path/to/file.py:callable "
+                               "(called every step with an Observation; returns acceleration "
+                               "in m/s^2 and curvature in 1/m).")] = "idm",
+    variants: Annotated[int | None, typer.Option(
+        min=1, help="Parameter variants per scenario, sampled (seeded) from its solved feasible set; "
+                    "variant 0 is the scenario as grounded (default 1). With --adversarial: the "
+                    "candidates searched per scenario (default 16).", show_default=False)] = None,
+    seed: Annotated[int, typer.Option(help="Seed of the variant sampling.")] = 0,
+    out: Annotated[Path | None, typer.Option(
+        "--out", "-o", help="Folder for tests.json and junit.xml (default: RUN_DIR/tests/<policy>).")] = None,
+    oracle: Annotated[str, typer.Option(
+        help="fsm: the ego's FSM states in order and no collision; safety: no collision only.")] = "fsm",
+    step_timeout: Annotated[float, typer.Option(
+        "--step-timeout", min=0.001, help="Wall seconds a policy may take per step.")] = 1.0,
+    adversarial: Annotated[bool, typer.Option(
+        "--adversarial", help="Search the feasible parameters for variants that make the policy fail "
+                              "while the scripted template ego verifies and collides with nothing "
+                              "in the same variant; report them with their parameters.")] = False,
+) -> None:
+    """Run a driving policy in place of the scripted ego in every scenario of a run."""
+    from regen.driving.testing.adversarial import DEFAULT_BUDGET, summary_lines
+    from regen.driving.testing.cases import case_line, run_tests, write_report
+    from regen.driving.testing.failure_pictures import keep_failures
+
+    console = Console(highlight=False, soft_wrap=True)
+
+    def show(case) -> None:
+        line = case_line(case)
+        tag = line[:4]
+        console.print(f"[{_STYLE[tag]}]{tag}[/]{escape(clean(line[4:]))}")
+
+    dest = out or default_out(run_dir, policy)
+    try:
+        n = variants or (DEFAULT_BUDGET if adversarial else 1)
+        report = run_tests(run_dir, policy, variants=n, seed=seed, step_timeout=step_timeout,
+                           oracle=oracle, adversarial=adversarial, on_case=show, on_episode=keep_failures(dest, policy=policy))
+        files = write_report(report, dest)
+    except RegenError as exc:
+        Console(stderr=True, soft_wrap=True).print(f"[red]error:[/red] {escape(clean(str(exc)))}")
+        raise typer.Exit(code=exc.exit_code) from exc
+    s = report.summary()
+    for line in summary_lines(report):
+        console.print(escape(clean(line)))
+    console.print(f"{s['passed']}/{s['tests']} passed, {s['skipped']} skipped; {report.collision_line()}")
+    console.print(f"wrote {escape(str(files['tests']))} and {escape(str(files['junit']))}")
+    console.print(_rerender(run_dir, dest))
+    if s["failed"]:
+        raise typer.Exit(code=1)
+
+
+def _rerender(run_dir: Path, dest: Path) -> str:
+    """Rewrite RUN_DIR/report.html so it shows the tests; the terminal line saying where it is
+    (and that tests written elsewhere with --out are not in it)."""
+    from regen.report import write_report as write_run_report
+    from regen.runfolder import RunFolder
+
+    inside = Path(dest).resolve().parent == (Path(run_dir) / RunFolder.TESTS).resolve()
+    note = "" if inside else (f" (it shows the tests under {escape(str(Path(run_dir) / RunFolder.TESTS))} "
+                              "only; these are not in it)")
+    try:
+        return f"report: {escape(str(write_run_report(run_dir)))}{note}"
+    except (RegenError, OSError) as exc:  # the tests are written; a report problem is only told
+        return f"[yellow]report not updated:[/yellow] {escape(clean(str(exc)))}"
+
+
+def make_app() -> typer.Typer:
+    """A standalone Typer app with only ``test`` (for tests)."""
+    app = typer.Typer(add_completion=False)
+    app.command("test")(test_command)
+    return app
+
+
+__all__ = ["default_out", "make_app", "test_command"]

@@ -1,0 +1,42 @@
+from regen.driving.grounding.placement import solve
+from regen.driving.world.actors import ActorSpec
+from regen.driving.world.ego import EGO_TEMPLATES
+
+
+def _actor(name, asset, primitive, location, speed_class, size):
+    return ActorSpec(name=name, asset=asset, primitive=primitive, location=location,
+                     speed_class=speed_class, size=size)
+
+
+def test_pedestrian_crosses_ahead_of_where_the_ego_stops():
+    t = EGO_TEMPLATES["stop_abruptly"]
+    child = _actor("child1", "child", "cross_the_road", "roadside_ahead", "moderate", (0.4, 0.4, 1.2))
+    sol = solve(t, [child])
+    assert sol.report.status in ("optimal", "feasible")
+    p = sol.params["child1"]
+    assert p["s"] > t.s_end + 2.3  # path beyond the ego's front bumper at rest
+    assert 1.2 <= p["v"] <= 1.8
+    reach = 8.0 - 1.75 - 1.75  # sidewalk centre to the ego lane's near edge [m]
+    assert t.t_event - 1.8 <= p["t"] + reach / p["v"] <= t.t_event - 0.2 + 0.05
+
+
+def test_infeasible_model_names_only_the_conflict():
+    t = EGO_TEMPLATES["stop_abruptly"]
+    sol = solve(t, [
+        _actor("sedan1", "sedan", "drive_forward", "ahead_same_lane", "slow", (4.6, 1.9, 1.5)),
+        _actor("debris1", "debris", "stationary", "roadside_ahead", "slow", (1.0, 1.0, 0.3)),
+    ])
+    assert sol.report.status == "infeasible"
+    assert sol.report.conflicts
+    assert all(c.startswith("sedan1:") for c in sol.report.conflicts)
+    assert any("as fast as the ego" in c for c in sol.report.conflicts)
+
+
+def test_lights_and_sensors_only_get_a_switching_time():
+    t = EGO_TEMPLATES["stop_abruptly"]
+    gnss = _actor("gnss1", "gnss", "", "ahead_same_lane", "moderate", (0.0, 0.0, 0.0))
+    light = _actor("light1", "traffic_light", "stationary", "junction_corner", "moderate", (0.3, 0.3, 4.0))
+    sol = solve(t, [gnss, light])
+    assert sol.report.status in ("optimal", "feasible")
+    assert set(sol.params["gnss1"]) == set(sol.params["light1"]) == {"t"}
+    assert t.t_event - 2.5 <= sol.params["gnss1"]["t"] <= t.t_event - 0.2

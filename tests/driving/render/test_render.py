@@ -1,0 +1,238 @@
+"""Bird's-eye GIF and key-frame strip of driving runs, drawn over a real generated map."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PIL import Image
+
+pytest.importorskip("scenic")
+pytest.importorskip("scenariogeneration")
+
+from regen.contract import ANIMATION, KEYFRAMES  # noqa: E402
+from regen.core.behavior import Behavior  # noqa: E402
+from regen.core.scenario import (  # noqa: E402
+    FSM,
+    AbstractState,
+    Entity,
+    PredicateCall,
+    Scenario,
+    Stage,
+    StateRef,
+)
+from regen.core.trace import ActorTrack, Trace  # noqa: E402
+from regen.core.verdict import StageResult, Verdict  # noqa: E402
+from regen.driving.render import roads as render_map
+from regen.driving.render import scenario as render  # noqa: E402
+from regen.driving.render.actors import BRAKE, EGO, LIGHT_COLORS, PARKED, actors_from_trace  # noqa: E402
+from regen.driving.render.frames import choose_view  # noqa: E402
+from regen.errors import ConfigError  # noqa: E402
+
+DT = 0.1  # [s]
+
+
+def _scenario(actors: dict[str, str], stages: int) -> Scenario:
+    names = list(actors)
+    states = [AbstractState(name=f"s{k}", actor=names[k % len(names)],
+                            all_of=[PredicateCall(name="moving", args=[names[k % len(names)]])])
+              for k in range(stages)]
+    return Scenario(
+        id="demo", domain="driving",
+        behavior=Behavior(text="the ego-vehicle stops abruptly", domain="driving"),
+        causal_graph=["cause", "the ego-vehicle stops abruptly"], narrative="test",
+        entities=[Entity(name=n, asset=a, kind="ego" if n == "ego" else "agent") for n, a in actors.items()],
+        fsm=FSM(states=states, stages=[Stage(conditions=[StateRef(actor=s.actor, state=s.name)])
+                                       for s in states]),
+    )
+
+
+def _verdict(reached: list[float | None], unmet: int | None = None) -> Verdict:
+    return Verdict(feasible=unmet is None, status="verified" if unmet is None else "fsm_incomplete",
+                   reason="test", first_unmet_stage=unmet,
+                   stages=[StageResult(index=k + 1, conditions=[f"a: s{k}"], reached_at=r)
+                           for k, r in enumerate(reached)])
+
+
+def _run(map_path, seconds: float = 4.0, map_name: str = "straight"):
+    """Ego east-bound at 5 m/s from x=-20; a sedan ahead; an ambulance with its siren behind;
+    a traffic light turning red -> green; the ego brakes for the second half."""
+    t = np.round(np.arange(0, seconds + 1e-9, DT), 6)
+    n = len(t)
+    half = t >= seconds / 2
+    actors = {
+        "ego": ActorTrack(asset="sedan", kind="ego", length=4.6, width=1.9, x=list(-20 + 5 * t),
+                          y=[-1.75] * n, heading=[0.0] * n, speed=[5.0] * n,
+                          states={"brake_lights": ["on" if h else "off" for h in half]}),
+        "car1": ActorTrack(asset="sedan", length=4.6, width=1.9, x=list(5 + 4 * t), y=[-1.75] * n,
+                           heading=[0.0] * n),
+        "ambulance1": ActorTrack(asset="ambulance", length=6.4, width=2.4, x=list(-32 + 6 * t),
+                                 y=[-5.25] * n, states={"siren": ["on"] * n}),
+        "light1": ActorTrack(asset="traffic_light", kind="object", x=[8.0] * n, y=[-9.0] * n,
+                             states={"light_state": ["green" if h else "red" for h in half]}),
+        "parked1": ActorTrack(asset="parked_car", kind="object", x=[22.0] * n, y=[-8.5] * n,
+                              heading=[0.0] * n, states={"door": ["open" if h else "closed" for h in half]}),
+    }
+    trace = Trace(dt=DT, times=list(t), actors=actors,
+                  meta={"map": map_name, "map_path": str(map_path)})
+    scenario = _scenario({"ego": "sedan", "car1": "sedan", "ambulance1": "ambulance",
+                          "light1": "traffic_light", "parked1": "parked_car"}, 3)
+    return scenario, trace
+
+
+def _frames(path) -> list[np.ndarray]:
+    im = Image.open(path)
+    out = []
+    for k in range(im.n_frames):
+        im.seek(k)
+        out.append(np.asarray(im.convert("RGB")).astype(int))
+    return out
+
+
+def _mask(img: np.ndarray, color, tol: int = 12) -> np.ndarray:
+    return (np.abs(img - np.asarray(color)).sum(axis=2) <= tol)
+
+
+@pytest.fixture(scope="module")
+def rendered(straight_map, tmp_path_factory):
+    scenario, trace = _run(straight_map)
+    out = render.render_scenario(scenario, trace, _verdict([0.0, 1.5, 2.5]),
+                                 tmp_path_factory.mktemp("run"))
+    return scenario, trace, out
+
+
+def test_returns_the_shared_roles_under_the_domains_file_names(rendered):
+    _, _, out = rendered
+    assert set(out) == {ANIMATION, KEYFRAMES}
+    assert (out[ANIMATION].name, out[KEYFRAMES].name) == ("bird_eye.gif", "keyframes.png")
+
+
+def test_gif_has_one_frame_per_tenth_of_a_second_at_640x480(rendered):
+    _, trace, out = rendered
+    im = Image.open(out[ANIMATION])
+    assert im.size == (640, 480)
+    assert im.n_frames == trace.steps  # dt = 0.1 s at 10 fps: every step is a frame
+    assert im.info["duration"] == 100  # [ms]: plays in simulated real time
+    assert out[ANIMATION].stat().st_size < 2 * 1024 * 1024
+
+
+def test_ego_is_drawn_where_the_trace_puts_it(rendered):
+    scenario, trace, out = rendered
+    frames = _frames(out[ANIMATION])
+    view = choose_view(actors_from_trace(trace))
+    assert view.follow is None  # the actors fit one fixed view here
+    ego = trace.actors["ego"]
+    centroids = []
+    reach = int(0.5 * ego.length * view.scale) + 6  # [px] half the car and a little
+    for k in (0, len(frames) - 1):
+        px, py = view.to_px(ego.x[k], ego.y[k])
+        r0, c0 = int(py) - reach, int(px) - reach
+        near = _mask(frames[k][r0: r0 + 2 * reach, c0: c0 + 2 * reach], EGO)
+        rows, cols = np.nonzero(near)
+        # a 4.6 m x 1.9 m body at ~14 px/m, minus the windscreen band
+        assert len(rows) > 0.6 * ego.length * ego.width * view.scale**2, "the ego is not there"
+        centroids.append((c0 + cols.mean(), r0 + rows.mean()))
+        assert abs(centroids[-1][0] - px) < 4 and abs(centroids[-1][1] - py) < 3
+    # it moved right by the distance driven, at the view's scale
+    moved = centroids[1][0] - centroids[0][0]
+    assert moved == pytest.approx((ego.x[-1] - ego.x[0]) * view.scale, abs=4)
+    assert abs(centroids[1][1] - centroids[0][1]) < 2
+
+
+def test_the_road_is_drawn_from_the_map(rendered):
+    _, trace, out = rendered
+    first = _frames(out[ANIMATION])[0][: render_map.MAP_H]
+    view = choose_view(actors_from_trace(trace))
+    # the map's sidewalks sit 7-9 m off the centre line; grass beyond 9 m
+    for y, color in ((8.0, render_map.SIDEWALK), (12.0, render_map.GRASS)):
+        px, py = view.to_px(-40.0 + 0 * y, y)
+        row, col = int(py), int(max(px, 5))
+        assert _mask(first[row - 1: row + 2, col: col + 3], color, tol=20).all(), (y, color)
+    # the yellow centre line at y = 0 spans the window
+    _, py0 = view.to_px(0.0, 0.0)
+    band = first[int(py0) - 2: int(py0) + 3]
+    assert _mask(band, render_map.MARK_YELLOW, tol=60).any(axis=0).mean() > 0.8
+
+
+def test_light_states_and_brake_lights_follow_the_trace(rendered):
+    _, trace, out = rendered
+    frames = _frames(out[ANIMATION])
+    view = choose_view(actors_from_trace(trace))
+    lx, ly = view.to_px(8.0, -9.0)  # the light's position
+    first, last = (f[int(ly) - 15: int(ly) + 15, int(lx) - 15: int(lx) + 15] for f in frames[::len(frames) - 1])
+    red, green = LIGHT_COLORS["red"], LIGHT_COLORS["green"]
+    assert _mask(first, red, 6).sum() > 20 and _mask(first, green, 6).sum() == 0
+    assert _mask(last, green, 6).sum() > 20 and _mask(last, red, 6).sum() == 0
+    whole_first, whole_last = frames[0][: render_map.MAP_H], frames[-1][: render_map.MAP_H]
+    assert _mask(whole_first, BRAKE, 0).sum() == 0
+    assert _mask(whole_last, BRAKE, 0).sum() > 4
+
+
+def test_parked_car_is_a_car_whose_door_opens(rendered):
+    _, trace, out = rendered
+    frames = _frames(out[ANIMATION])
+    view = choose_view(actors_from_trace(trace))
+    px, py = view.to_px(22.0, -8.5)
+    first, last = (f[int(py) - 40: int(py) + 40, int(px) - 50: int(px) + 50] for f in frames[::len(frames) - 1])
+    assert _mask(first, PARKED, 0).sum() > 0.6 * 4.6 * 1.9 * view.scale**2
+    door = (255, 230, 0)
+    assert _mask(first, door, 0).sum() == 0 and _mask(last, door, 0).sum() > 10
+
+
+def test_siren_glow_appears_around_the_ambulance(rendered):
+    _, trace, out = rendered
+    first = _frames(out[ANIMATION])[0]
+    view = choose_view(actors_from_trace(trace))
+    px, py = view.to_px(trace.actors["ambulance1"].x[0], trace.actors["ambulance1"].y[0])
+    patch = first[int(py) - 40: int(py) + 40, max(int(px) - 60, 0): int(px) + 60]
+    reds = (patch[..., 0] - patch[..., 2] > 60).sum()
+    blues = (patch[..., 2] - patch[..., 0] > 60).sum()
+    assert reds + blues > 100
+
+
+def test_keyframe_strip_has_start_each_stage_and_end(rendered):
+    _, _, out = rendered
+    strip = Image.open(out[KEYFRAMES])
+    # stage 1 at t=0 shares the start tile: start, stage 2, stage 3, end
+    assert strip.size == (4 * 640 + 3 * render.KEYFRAME_GAP, 480)
+
+
+def test_many_stages_are_capped_at_six_tiles_and_few_filled_to_four(straight_map, tmp_path):
+    scenario, trace = _run(straight_map)
+    many = render.render_scenario(scenario, trace, _verdict([0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5]),
+                                  tmp_path / "many")
+    assert Image.open(many[KEYFRAMES]).size[0] == 6 * 640 + 5 * render.KEYFRAME_GAP
+    none = render.render_scenario(scenario, trace, _verdict([None, None, None], unmet=1),
+                                  tmp_path / "none")
+    assert Image.open(none[KEYFRAMES]).size[0] == 4 * 640 + 3 * render.KEYFRAME_GAP
+
+
+def test_long_runs_follow_the_ego_and_cap_frames(straight_map, tmp_path):
+    scenario, trace = _run(straight_map, seconds=30.0)  # ego drives 150 m: too far for one view
+    out = render.render_scenario(scenario, trace, _verdict([0.0, 10.0, 20.0]), tmp_path,
+                                 render.RenderOptions(fps=10, max_frames=60))
+    im = Image.open(out[ANIMATION])
+    assert im.n_frames <= 61
+    view = choose_view(actors_from_trace(trace))
+    assert view.follow == "ego"
+    frames = _frames(out[ANIMATION])
+    for k in (0, len(frames) - 1):  # the ego stays near the middle of the window
+        band = frames[k][180:240]  # the ego's lane (y = -1.75 m) crosses the window here
+        rows, cols = np.nonzero(_mask(band, EGO))
+        assert len(cols) > 100 and abs(np.median(cols) - 320) < 40
+
+
+def test_missing_map_draws_plain_ground(straight_map, tmp_path, caplog):
+    scenario, trace = _run(straight_map)
+    trace.meta["map_path"] = str(tmp_path / "gone.xodr")
+    trace.meta["map"] = "no_such_map"
+    out = render.render_scenario(scenario, trace, _verdict([0.0, 1.0, 2.0]), tmp_path)
+    first = _frames(out[ANIMATION])[0][: render_map.MAP_H]
+    assert _mask(first, render_map.ROAD, 6).sum() < 50  # no road drawn (a map has ~100k such px)
+    assert _mask(first, EGO).sum() > 50  # actors still are
+    assert "gone.xodr" in caplog.text
+
+
+def test_empty_trace_is_a_clear_error(tmp_path):
+    scenario = _scenario({"ego": "sedan"}, 1)
+    with pytest.raises(ConfigError, match="no steps"):
+        render.render_scenario(scenario, Trace(dt=DT, times=[], actors={}), _verdict([None]), tmp_path)
