@@ -9,6 +9,9 @@ whatever primitive a role names.
 To add a primitive: write ``<name>.py`` here with its ``SPEC`` and add
 ``tests/driving/primitives/test_<name>.py``; the conformance test
 (``tests/driving/primitives/test_registry.py``) checks it against the rest of the toolkit.
+
+Imports: ``world`` of this domain and the shared core (a primitive adds its parameters and
+named constraints to the world's placement model; grounding reads the specs, never the reverse).
 """
 
 from __future__ import annotations
