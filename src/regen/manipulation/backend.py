@@ -120,6 +120,11 @@ class ManipulationBackend(DomainBackend):
                                                          "physics_steps": result.physics_steps}})
         return SimulationOutput(trace=trace, timings=timings)
 
+    def policy_harness(self):
+        from regen.manipulation.testing.harness import ManipulationHarness
+
+        return ManipulationHarness()
+
     def render(self, scenario: Scenario, trace: Trace, verdict: Verdict, out_dir: Path) -> dict[str, Path]:
         from regen.manipulation.render import render_run
 
