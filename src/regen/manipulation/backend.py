@@ -21,6 +21,7 @@ class ManipulationBackend(DomainBackend):
 
     name = "manipulation"
     database_resource = RESOURCE
+    gym_envs = {"regen/Manipulation-v0": "regen.manipulation.gym.env:ManipulationEnv"}
     predicates_module = "regen.manipulation.predicates"
     edge_examples = ("regen.manipulation", "data/edges_example.jsonl")
     wording = Wording(
