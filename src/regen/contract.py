@@ -96,6 +96,9 @@ class DomainBackend(ABC):
     edge_examples: ClassVar[tuple[str, str] | None] = None
     #: Captions for the report.
     report_hints: ClassVar[ReportHints] = ReportHints()
+    #: Gymnasium environments over this domain's scenarios: env id -> entry point
+    #: ('package.module:Class'); :mod:`regen.gym` registers those of every registered domain.
+    gym_envs: ClassVar[dict[str, str]] = {}
 
     def database(self) -> AssetDatabase:
         """The asset database of this domain's simulator."""

@@ -32,6 +32,7 @@ log = logging.getLogger(__name__)
 class DrivingBackend(DomainBackend):
     name = "driving"
     database_resource = RESOURCE
+    gym_envs = {"regen/Driving-v0": "regen.driving.gym.env:DrivingEnv"}
     predicates_module = "regen.driving.verify.predicates"
     edge_examples = ("regen.driving", "data/edges_example.jsonl")
     wording = Wording(

@@ -21,6 +21,7 @@ class ManipulationBackend(DomainBackend):
 
     name = "manipulation"
     database_resource = RESOURCE
+    gym_envs = {"regen/Manipulation-v0": "regen.manipulation.gym.env:ManipulationEnv"}
     predicates_module = "regen.manipulation.predicates"
     edge_examples = ("regen.manipulation", "data/edges_example.jsonl")
     wording = Wording(
@@ -119,6 +120,11 @@ class ManipulationBackend(DomainBackend):
         trace = result.trace.model_copy(update={"meta": {**result.trace.meta,
                                                          "physics_steps": result.physics_steps}})
         return SimulationOutput(trace=trace, timings=timings)
+
+    def policy_harness(self):
+        from regen.manipulation.testing.harness import ManipulationHarness
+
+        return ManipulationHarness()
 
     def render(self, scenario: Scenario, trace: Trace, verdict: Verdict, out_dir: Path) -> dict[str, Path]:
         from regen.manipulation.render import render_run

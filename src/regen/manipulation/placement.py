@@ -187,8 +187,12 @@ def structural_problems(req: Request, refs: dict[str, Ref]) -> list[str]:
 
 
 def solve_placement(requests: list[Request], geometry: SceneGeometry, *, seed: int = 0,
-                    time_limit: float = 5.0) -> PlacementResult:
-    """Solve all placements at once; infeasible results name the relations in conflict."""
+                    time_limit: float = 5.0,
+                    spots: dict[str, tuple[float, float]] | None = None) -> PlacementResult:
+    """Solve all placements at once; infeasible results name the relations in conflict.
+
+    Each object is kept as close as it may be to a preferred spot [m]: a seeded random point of
+    the room, or ``spots[name]`` where given (policy-test variants ask for the room's corners)."""
     from ortools.sat.python import cp_model
 
     t0 = time.perf_counter()
@@ -276,6 +280,8 @@ def solve_placement(requests: list[Request], geometry: SceneGeometry, *, seed: i
         groups.setdefault(group, []).append(r.name)
         # a seeded preferred spot: the solver keeps each object as close to it as it may
         px, py = rng.uniform(ROOM.lo[0], ROOM.hi[0]), rng.uniform(ROOM.lo[1], ROOM.hi[1])
+        if spots and r.name in spots:
+            px, py = spots[r.name]
         for var, pref, name in ((x, px, "dx"), (y, py, "dy")):
             dev = m.NewIntVar(0, 10_000, f"{name}_{r.name}")
             m.AddAbsEquality(dev, var - _cm(pref))

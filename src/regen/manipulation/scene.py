@@ -279,6 +279,12 @@ class Scene:
         return [float(self._call("getJointState", self.robot, j)[0])
                 for j in (*ARM_JOINTS, *FINGER_JOINTS)]
 
+    def tilt(self, name: str) -> float:
+        """Angle [rad] between the body's up axis and the world's (0: upright)."""
+        _, orn = self._call("getBasePositionAndOrientation", self.bodies[name].id)
+        m = self._call("getMatrixFromQuaternion", orn)
+        return float(math.acos(max(-1.0, min(1.0, m[8]))))
+
     def contact(self, a: str, b: str) -> bool:
         return bool(self._call("getContactPoints", self.bodies[a].id, self.bodies[b].id))
 

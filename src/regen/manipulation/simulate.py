@@ -13,7 +13,9 @@ Trace contents, recorded at ``RECORD_HZ``: every body's AABB centre (x, y, z) an
 robot's end effector (``ee_x/y/z``), what it holds (``holding``) and its joint angles
 (``q0``..``q8``, for replay); furniture ``joint_fraction``, ``joint_position``, handle point
 (``handle_x/y/z``), interior (``cavity_lo_x`` .. ``cavity_hi_z``), ``top`` height and the
-meaning of the joint when it has one (``power``/``water`` on/off).
+meaning of the joint when it has one (``power``/``water`` on/off). With ``Recorder.watch`` set
+(policy tests) also the robot's ``contacts`` (the watched bodies any robot link touched since
+the previous sample, comma-separated) and each object's ``tilt`` [rad] from upright.
 """
 
 from __future__ import annotations
@@ -83,9 +85,18 @@ class Recorder:
     tracks: dict[str, dict[str, list]] = field(default_factory=dict)
     holding: str | None = None
     meaning: dict[str, str] = field(default_factory=dict)  # furniture -> state key it drives
+    # bodies whose contacts with the robot are recorded, checked every physics step: a touch
+    # lasting less than a sample period (1/24 s) must not slip through
+    watch: tuple[str, ...] = ()
+    touched: set[str] = field(default_factory=set)
 
     def __call__(self) -> None:
         self.steps += 1
+        if self.watch:
+            s = self.scene
+            for name in self.watch:
+                if name not in self.touched and s.contact("robot", name):
+                    self.touched.add(name)
         if (self.steps - 1) % self.every == 0:
             self.sample()
 
@@ -106,12 +117,17 @@ class Recorder:
                 self._put(name, "holding", self.holding or "")
                 for i, q in enumerate(s.arm_state()):
                     self._put(name, f"q{i}", round(q, 4))
+                if self.watch:
+                    self._put(name, "contacts", ",".join(sorted(self.touched)))
+                    self.touched.clear()
                 continue
             box = s.aabb(name, -1 if b.kind == "furniture" else None)
             centre = [(lo + hi) / 2 for lo, hi in zip(box.lo, box.hi, strict=True)]
             for k, v in zip(("x", "y", "z"), centre, strict=True):
                 self._put(name, k, round(v, 4))
             self._put(name, "heading", round(s.yaw(name), 4))
+            if self.watch:
+                self._put(name, "tilt", round(s.tilt(name), 4))
             if b.kind == "furniture" and b.spec is not None:
                 spec = b.spec
                 frac = s.joint_fraction(name)
@@ -167,11 +183,13 @@ class RolloutResult:
     physics_steps: int
 
 
-def rollout(scenario: Scenario, *, policy: object | None = None) -> RolloutResult:
+def rollout(scenario: Scenario, *, policy: object | None = None,
+            watch: tuple[str, ...] = ()) -> RolloutResult:
     """Build the scene, run the behavior's controller, record the trace.
 
     ``policy``: a trained SAC policy (:mod:`regen.manipulation.rl`); default is the scripted
-    motion-primitive controller. Simulator failures raise :class:`SimulationError`.
+    motion-primitive controller. ``watch``: bodies whose contacts with the robot the trace
+    records (see the module docstring). Simulator failures raise :class:`SimulationError`.
     """
     from regen.manipulation.controller import Controller
     from regen.manipulation.scripted import run_script
@@ -182,7 +200,7 @@ def rollout(scenario: Scenario, *, policy: object | None = None) -> RolloutResul
     t0 = time.perf_counter()
     with Scene(layout) as scene:
         t1 = time.perf_counter()
-        rec = Recorder(scene)
+        rec = Recorder(scene, watch=tuple(watch))
         if behavior.state_name:
             rec.meaning[roles.target] = behavior.state_name
         ctl = Controller(scene, on_step=rec)

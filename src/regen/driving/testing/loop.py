@@ -19,8 +19,6 @@ import dataclasses
 import functools
 import math
 import random
-import signal
-import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -42,6 +40,8 @@ from regen.driving.testing.policies import (
 from regen.driving.world.plan import ActorPlan
 from regen.driving.world.triggers import warped_time
 from regen.errors import SimulationError
+from regen.harness.timeout import PolicyFailure
+from regen.harness.timeout import call_with_timeout as _call_with_timeout
 
 STEP_TIMEOUT = 1.0  # default wall time a policy may take per step [s]
 BRAKE_LIGHT_DECEL = 1.0  # as regen.driving.simulation.record: brake lights show above this decel [m/s^2]
@@ -58,12 +58,6 @@ class PolicyRun:
     failure_time: float | None = None  # [s]
     steps: int = 0  # physics steps simulated
     timings: dict[str, float] = field(default_factory=dict)  # 'compile', 'simulate', 'policy' [s]
-
-
-class PolicyFailure(Exception):
-    def __init__(self, kind: str, reason: str):
-        super().__init__(reason)
-        self.kind, self.reason = kind, reason
 
 
 @dataclass
@@ -126,62 +120,6 @@ def _at(schedule: list[tuple[float, str]], t: float) -> str | None:
         if t >= t_from - 1e-9:
             val = v
     return val
-
-
-class _Timeout(BaseException):
-    """Raised inside a policy by the step alarm (BaseException: a policy's ``except Exception``
-    must not swallow it)."""
-
-
-def _alarm(signum, frame):
-    raise _Timeout
-
-
-def _call_with_timeout(fn: Callable, arg: object, timeout: float | None) -> object:
-    """fn(arg), stopped after ``timeout`` [s]: PolicyFailure('timeout'); any exception of fn:
-    PolicyFailure('exception').
-
-    On POSIX an interval timer (SIGALRM) interrupts the policy (costs microseconds; Scenic
-    itself needs the main thread and uses SIGALRM only while its own behaviors run, not here);
-    elsewhere the policy runs in a daemon thread that is abandoned on timeout.
-    """
-    if timeout is None:
-        try:
-            return fn(arg)
-        except Exception as exc:
-            raise PolicyFailure("exception", f"the policy raised {type(exc).__name__}: {exc}") from None
-    too_slow = PolicyFailure("timeout", f"the policy took longer than the step timeout of {timeout:g} s")
-    if hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread():
-        previous = signal.signal(signal.SIGALRM, _alarm)
-        try:
-            signal.setitimer(signal.ITIMER_REAL, timeout)
-            try:
-                return fn(arg)
-            finally:
-                signal.setitimer(signal.ITIMER_REAL, 0)
-        except _Timeout:
-            raise too_slow from None
-        except Exception as exc:
-            raise PolicyFailure("exception", f"the policy raised {type(exc).__name__}: {exc}") from None
-        finally:
-            signal.signal(signal.SIGALRM, previous)
-    box: dict[str, object] = {}
-
-    def work() -> None:
-        try:
-            box["value"] = fn(arg)
-        except BaseException as exc:  # noqa: BLE001 - reported as the policy's failure
-            box["error"] = exc
-
-    th = threading.Thread(target=work, daemon=True, name="regen-policy")
-    th.start()
-    th.join(timeout)
-    if th.is_alive():
-        raise too_slow
-    if "error" in box:
-        exc = box["error"]
-        raise PolicyFailure("exception", f"the policy raised {type(exc).__name__}: {exc}")
-    return box.get("value")
 
 
 class _Driver:
