@@ -21,7 +21,7 @@ from regen.errors import ConfigError
 from regen.expand.answers import EdgeVerdict, EntitySelection, EventProposal
 from regen.expand.dedupe import normalize, similar
 from regen.llm.client import LLM
-from regen.prompting import render
+from regen.templates import render
 
 PKG = "regen.expand"
 
