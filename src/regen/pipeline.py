@@ -317,7 +317,7 @@ def _stages(run: RunFolder, manifest: RunManifest, backend: DomainBackend, setti
     try:
         emit("stage", stage="expand")
         t0 = time.perf_counter()
-        graph = expand(behavior, llm, database=backend.database(), limits=settings.limits(),
+        graph = expand(behavior, llm, database=backend.database(), backend=backend, limits=settings.limits(),
                        prior=settings.prior, candidates=settings.candidates,
                        forced_causes=settings.forced_causes,
                        on_update=lambda g, what: (write_json(run / run.GRAPH, g),

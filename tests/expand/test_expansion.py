@@ -213,3 +213,20 @@ def test_entity_aliases_resolve_to_database_assets() -> None:
     g = _run(model, Limits(max_depth=1))
     assets = {n.asset for n in g.nodes.values() if n.kind == "entity" and n.status == "accepted"}
     assert {"adult", "ambulance"} <= assets
+
+
+def test_the_domain_is_looked_up_once_not_at_every_call(monkeypatch) -> None:
+    # the backend the caller has travels down to every proposal and judgement: following one
+    # behavior through expansion never goes back to the registry, and the graph is the same
+    from regen import domains
+    from regen.driving.backend import DrivingBackend
+
+    expected = _run(_model())
+    lookups: list[str] = []
+    real = domains.backend_class
+    monkeypatch.setattr(domains, "backend_class", lambda name: lookups.append(name) or real(name))
+    g = _run(_model(), backend=DrivingBackend())
+    assert lookups == []
+    assert g.model_dump(exclude={"created"}) == expected.model_dump(exclude={"created"})
+    _run(_model())  # by name: one look-up for the whole expansion
+    assert lookups == ["driving"]

@@ -64,6 +64,28 @@ def test_geometric_conflict_names_the_relations_in_the_core():
     assert "a1 under table" in res.conflicts[0] or "b1 under table" in res.conflicts[0]
 
 
+def test_infeasible_placement_names_a_minimal_conflict_set():
+    # two boxes 0.3 x 0.4 m do not both fit under the table (0.42 x 0.82 m free of the legs);
+    # the four other relations are satisfiable with either box, yet CP-SAT's own core names all
+    # six: the verdict must name only the two that conflict
+    g = _geom("open_cabinet")
+    box = (0.3, 0.4, 0.3)
+    reqs = [Request("cup1", "cup", (0.08, 0.08, 0.1), "on", "table"),
+            Request("a1", "box", box, "under", "table"),
+            Request("pet1", "pet", (0.6, 0.25, 0.45), "near", "table"),
+            Request("b1", "box", box, "under", "table"),
+            Request("book1", "book", (0.2, 0.15, 0.04), "on", "table"),
+            Request("trash1", "trash_can", (0.3, 0.3, 0.4), "right_of", "cabinet1")]
+    res = solve_placement(reqs, g)
+    assert res.status == "infeasible"
+    assert res.core == ["a1 under table", "b1 under table"]
+    assert res.conflicts[0].endswith(": a1 under table; b1 under table")
+    named = [r for r in reqs if f"{r.name} {r.relation.replace('_', ' ')} {r.reference}" in res.core]
+    assert solve_placement(named, g).status == "infeasible"  # the set alone conflicts
+    for r in named:  # and it is minimal: without any one of its relations the rest is feasible
+        assert solve_placement([q for q in reqs if q is not r], g).status in ("optimal", "feasible")
+
+
 def test_out_of_reach_and_keepout():
     g = _geom("open_door")
     res = solve_placement([Request("child1", "child", (0.3, 0.25, 1.1), "out_of_reach", "robot")], g)

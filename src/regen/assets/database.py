@@ -150,24 +150,15 @@ class AssetDatabase(Model):
         """Every name that one section uses must be defined in another; report file and key."""
         problems: list[str] = []
         for cat, members in self.categories.items():
-            for i, a in enumerate(members):
-                if a not in self.assets:
-                    problems.append(f"categories.{cat}[{i}]: unknown asset {a!r}")
+            problems += _unknown(f"categories.{cat}", members, self.assets, "asset")
         for aid, spec in self.assets.items():
-            for i, p in enumerate(spec.properties):
-                if p not in self.properties:
-                    problems.append(f"assets.{aid}.properties[{i}]: unknown property {p!r}")
-            for i, b in enumerate(spec.behaviors):
-                if b not in self.behaviors:
-                    problems.append(f"assets.{aid}.behaviors[{i}]: unknown behavior {b!r}")
+            problems += _unknown(f"assets.{aid}.properties", spec.properties, self.properties, "property")
+            problems += _unknown(f"assets.{aid}.behaviors", spec.behaviors, self.behaviors, "behavior")
         for bid, spec in self.behaviors.items():
-            for i, p in enumerate(spec.parameters):
-                if p not in self.properties:
-                    problems.append(f"behaviors.{bid}.parameters[{i}]: unknown property {p!r}")
+            problems += _unknown(f"behaviors.{bid}.parameters", spec.parameters, self.properties, "property")
         if "behavior" in self.properties and self.properties["behavior"].states is not None:
-            for i, b in enumerate(self.properties["behavior"].states):
-                if b not in self.behaviors:
-                    problems.append(f"properties.behavior.states[{i}]: unknown behavior {b!r}")
+            problems += _unknown("properties.behavior.states", self.properties["behavior"].states,
+                                 self.behaviors, "behavior")
         if problems:
             raise AssetDatabaseError(f"{source}: " + "; ".join(problems))
 
@@ -292,6 +283,11 @@ MAX_DATABASE_BYTES = 20_000_000  # an asset database is a small file; larger one
 # Control characters and lone surrogates (regen.core.text): no asset, category or description
 # needs them, and they break terminals, pages and UTF-8 files.
 _shown = escaped
+
+
+def _unknown(where: str, names: list[str], known: dict[str, Any], what: str) -> list[str]:
+    """One problem per name in ``names`` (the list at ``where``) that ``known`` does not define."""
+    return [f"{where}[{i}]: unknown {what} {n!r}" for i, n in enumerate(names) if n not in known]
 
 
 def _unsafe_text(raw: Any) -> str | None:

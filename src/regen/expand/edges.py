@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
-from functools import lru_cache
-from typing import Any, Literal, Union
+from functools import cached_property
+from typing import TYPE_CHECKING, Any, Literal, Union
 
 from pydantic import Field, create_model
 
@@ -21,7 +21,10 @@ from regen.errors import ConfigError
 from regen.expand.answers import EdgeVerdict, EntitySelection, EventProposal
 from regen.expand.dedupe import normalize, similar
 from regen.llm.client import LLM
-from regen.prompting import render
+from regen.templates import render
+
+if TYPE_CHECKING:
+    from regen.contract import DomainBackend, Wording
 
 PKG = "regen.expand"
 
@@ -45,45 +48,82 @@ class Judged:
         return self.calls.get(candidate, self.call_id)
 
 
-def _wording(domain: str):
-    from regen import domains
+@dataclass(frozen=True, eq=False)
+class DomainView:
+    """One domain as expansion sees it: its backend, made once and handed down, so a proposal
+    or a judgement never goes back to the registry. Every function here takes one (or, for
+    callers outside expansion, the domain's name)."""
 
-    return domains.backend_class(domain).wording
+    name: str  # as registered (``--domain``)
+    backend: DomainBackend
+
+    @property
+    def wording(self) -> Wording:
+        """The domain's words in the shared prompts."""
+        return self.backend.wording
+
+    @property
+    def robot(self) -> str:
+        """What the domain calls the robot whose behavior is explained ('robot', 'ego-vehicle')."""
+        return self.backend.report_hints.robot
+
+    @cached_property
+    def system(self) -> str:
+        """The system prompt of every expansion call."""
+        return _render("system", self)
+
+    @cached_property
+    def mechanics(self) -> tuple[re.Pattern[str], ...]:
+        """``Wording.mechanics`` compiled; ConfigError naming the domain for a bad pattern."""
+        out = []
+        for p in self.wording.mechanics:
+            try:
+                out.append(re.compile(p))
+            except re.error as exc:
+                raise ConfigError(f"domain {self.name!r}: Wording.mechanics pattern {p!r} is not a valid "
+                                  f"regular expression ({exc})") from None
+        return tuple(out)
+
+    def database(self) -> AssetDatabase:
+        return self.backend.database()
+
+    def property_choices(self, asset: str, behavior: Behavior | None = None) -> Choices | None:
+        return self.backend.property_choices(asset, behavior)
 
 
-def _render(name: str, domain: str, **variables: object) -> str:
+Domain = Union[str, DomainView]  # noqa: UP007  (a domain's name, or its view)
+
+
+def domain_view(domain: str | DomainView | DomainBackend) -> DomainView:
+    """The view of a domain given by name (looked up in the registry once), view or backend."""
+    if isinstance(domain, DomainView):
+        return domain
+    if isinstance(domain, str):
+        from regen import domains
+
+        return DomainView(domain, domains.make(domain))
+    return DomainView(domain.name, domain)
+
+
+def _render(name: str, domain: DomainView, **variables: object) -> str:
     """A shared prompt in the words of ``domain`` (its backend's ``wording``)."""
-    return render(PKG, name, wording=_wording(domain), **variables)
+    return render(PKG, name, wording=domain.wording, **variables)
 
 
-def system_prompt(domain: str) -> str:
-    return _render("system", domain)
+def system_prompt(domain: Domain) -> str:
+    return domain_view(domain).system
 
 
-def robot_word(domain: str) -> str:
+def robot_word(domain: Domain) -> str:
     """What the domain calls the robot whose behavior is explained ('robot', 'ego-vehicle')."""
-    from regen import domains
-
-    return domains.backend_class(domain).report_hints.robot
+    return domain_view(domain).robot
 
 
-@lru_cache(maxsize=32)
-def _mechanics(domain: str, patterns: tuple[str, ...]) -> tuple[re.Pattern[str], ...]:
-    out = []
-    for p in patterns:
-        try:
-            out.append(re.compile(p))
-        except re.error as exc:
-            raise ConfigError(f"domain {domain!r}: Wording.mechanics pattern {p!r} is not a valid "
-                              f"regular expression ({exc})") from None
-    return tuple(out)
-
-
-def restates_mechanics(domain: str, cause: str) -> str | None:
+def restates_mechanics(domain: Domain, cause: str) -> str | None:
     """The words of ``cause`` that restate the robot's own command, programming, sensors or
     mechanics (the domain's ``Wording.mechanics``), or None for a context of the world."""
     text = " ".join(cause.lower().replace("\u2019", "'").split())
-    for rx in _mechanics(domain, tuple(_wording(domain).mechanics)):
+    for rx in domain_view(domain).mechanics:
         if m := rx.search(text):
             return m.group(0).strip() or text
     return None
@@ -103,26 +143,29 @@ def _match(name: str, options: list[str]) -> str | None:
     return None
 
 
-def propose_events(llm: LLM, domain: str, chain: list[str], *, prior: str | None = None,
+def propose_events(llm: LLM, domain: Domain, chain: list[str], *, prior: str | None = None,
                    max_causes: int = 4) -> tuple[list[str], str]:
     """Candidate causes of ``chain[0]`` (chain runs from the source node to the behavior)."""
+    domain = domain_view(domain)
     prompt = _render("event_proposal", domain, chain=chain, source=chain[0],
                     prior=prior, max_causes=max_causes)
-    got = llm.ask(prompt, EventProposal, purpose="event_proposal", system=system_prompt(domain))
+    got = llm.ask(prompt, EventProposal, purpose="event_proposal", system=domain.system)
     return got.value.causes[:max_causes], got.call_id
 
 
-def judge_events(llm: LLM, domain: str, chain: list[str], candidates: list[str]) -> Judged:
+def judge_events(llm: LLM, domain: Domain, chain: list[str], candidates: list[str]) -> Judged:
     """Which candidates plausibly and directly cause ``chain[0]``: one yes/no call per candidate.
 
     Each call restates the effect as a question about that one candidate, with the domain's
     worked example (``Wording.judge_example``), and asks for the reason before the answer; a
     small model judges one short question far better than a list of them at once.
     """
+    domain = domain_view(domain)
+
     def ask(candidate: str):
         prompt = _render("event_edge", domain, chain=chain, source=chain[0], candidate=candidate,
-                         robot=robot_word(domain))
-        return llm.ask(prompt, EdgeVerdict, purpose="event_edges", system=system_prompt(domain))
+                         robot=domain.robot)
+        return llm.ask(prompt, EdgeVerdict, purpose="event_edges", system=domain.system)
 
     answers = llm.map(ask, candidates)
     out = Judged(call_id=answers[0].call_id if answers else "")
@@ -136,14 +179,15 @@ def judge_events(llm: LLM, domain: str, chain: list[str], candidates: list[str])
     return out
 
 
-def select_entities(llm: LLM, db: AssetDatabase, domain: str, chain: list[str]) -> Judged:
+def select_entities(llm: LLM, db: AssetDatabase, domain: Domain, chain: list[str]) -> Judged:
     """Entities of the database directly related to the event ``chain[0]``."""
+    domain = domain_view(domain)
     options = db.entities()
     prompt = _render("entity_edges", domain, chain=chain, source=chain[0],
                     entities=[(a, db.assets[a].description) for a in options])
-    got = llm.ask(prompt, EntitySelection, purpose="entity_edges", system=system_prompt(domain))
+    got = llm.ask(prompt, EntitySelection, purpose="entity_edges", system=domain.system)
     out = Judged(call_id=got.call_id)
-    robot = robot_word(domain)
+    robot = domain.robot
     # words that name the robot itself ('ego' of 'ego-vehicle'): never guessed to be another asset
     own = {w for w in name_words(robot) if db.resolve(w) is None}
     for ch in got.value.entities:
@@ -175,9 +219,10 @@ def _unknown_reason(db: AssetDatabase, name: str, robot: str, own: set[str]) -> 
     return why
 
 
-def propose_values(llm: LLM, domain: str, chain: list[str], event: str, entity: str,
+def propose_values(llm: LLM, domain: Domain, chain: list[str], event: str, entity: str,
                    properties: list[tuple[str, str]], *, max_values: int = 3) -> tuple[dict[str, list[str]], str]:
     """Candidate values for properties the database does not enumerate (locations)."""
+    domain = domain_view(domain)
     fields: dict[str, Any] = {p: (list[str], Field(default_factory=list, description=d))
                               for p, d in properties}
     schema = create_model("FreeValues", __base__=Answer, **fields)
@@ -187,7 +232,7 @@ def propose_values(llm: LLM, domain: str, chain: list[str], event: str, entity: 
         for p, d in properties)
     example = "{" + ", ".join(f'"{p}": ["...", "..."]' for p, _ in properties) + "}"
     prompt += f"\n\nAnswer as JSON: {example}"
-    got = llm.ask(prompt, schema, purpose="property_proposal", system=system_prompt(domain))
+    got = llm.ask(prompt, schema, purpose="property_proposal", system=domain.system)
     values = {p: [" ".join(v.split()) for v in getattr(got.value, p) if v and v.strip()][:max_values]
               for p, _ in properties}
     return values, got.call_id
@@ -219,12 +264,10 @@ def named_states(db: AssetDatabase, asset: str, event: str,
     return out
 
 
-def property_choices(domain: str, asset: str, behavior: Behavior | None = None) -> Choices | None:
+def property_choices(domain: Domain, asset: str, behavior: Behavior | None = None) -> Choices | None:
     """What the domain's simulator restricts of ``asset``'s properties when explaining
     ``behavior`` (``DomainBackend.property_choices``)."""
-    from regen import domains
-
-    return domains.make(domain).property_choices(asset, behavior)
+    return domain_view(domain).property_choices(asset, behavior)
 
 
 Choices = tuple[str | None, dict[str | None, dict[str, list[str]]]]  # DomainBackend.property_choices
@@ -262,7 +305,7 @@ def _choice_models(options: dict[str, tuple[str, list[str]]], choices: Choices |
     return out
 
 
-def select_properties(llm: LLM, domain: str, chain: list[str], event: str, entity: str,
+def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, entity: str,
                       options: dict[str, tuple[str, list[str]]],
                       choices: Choices | None = None,
                       named: dict[str, tuple[str, str]] | None = None) -> tuple[dict[str, Judged], str]:
@@ -276,6 +319,7 @@ def select_properties(llm: LLM, domain: str, chain: list[str], event: str, entit
     the event's words name (``named``, :func:`named_states`) is the property's only offer; the
     values it rules out are kept in ``Judged.ruled`` with the phrase.
     """
+    domain = domain_view(domain)
     ruled: dict[str, dict[str, str]] = {}
     for p, (state, phrase) in (named or {}).items():
         desc, values = options[p]
@@ -295,10 +339,10 @@ def select_properties(llm: LLM, domain: str, chain: list[str], event: str, entit
                 rules.append((value, "; ".join(parts) or "nothing else"))
     prompt = _render("property_edges", domain, chain=chain, event=event, entity=entity,
                      properties=[(p, d, v) for p, (d, v) in options.items()],
-                     key=choices[0] if rules else None, rules=rules, robot=robot_word(domain))
+                     key=choices[0] if rules else None, rules=rules, robot=domain.robot)
     example = ", ".join(f'"{p}": "<one value>"' for p in options)
     prompt += ': {"role": "<what it does>", "choice": {' + example + "}}"
-    got = llm.ask(prompt, schema, purpose="property_edges", system=system_prompt(domain))
+    got = llm.ask(prompt, schema, purpose="property_edges", system=domain.system)
     role = " ".join(got.value.role.split())
     picked = got.value.choice.model_dump()
     key = choices[0] if choices else None
@@ -317,7 +361,7 @@ def select_properties(llm: LLM, domain: str, chain: list[str], event: str, entit
 
 
 def judge_candidates(llm: LLM, kind: str, source: str, candidates: list[str], *,
-                     domain: str, context: list[str] | None = None,
+                     domain: Domain, context: list[str] | None = None,
                      database: AssetDatabase | None = None) -> set[str]:
     """Edge construction for evaluation: the accepted subset of ``candidates`` for ``source``.
 
@@ -326,35 +370,32 @@ def judge_candidates(llm: LLM, kind: str, source: str, candidates: list[str], *,
     chain, event first).
     """
     chain = [source, *(context or [])]
+    domain = domain_view(domain)
     if kind == "event->event":  # as expansion decides: the judge, then the domain's mechanics rule
         return {c for c in judge_events(llm, domain, chain, candidates).accepted
                 if restates_mechanics(domain, c) is None}
     if kind == "entity->event":
-        from regen import domains
-
-        db = database or domains.make(domain).database()
+        db = database or domain.database()
         return {a for a in select_entities(llm, db, domain, chain).accepted if a in candidates}
     if kind == "property->entity":
         # as expansion asks (one call per entity, one consistent value per property), over the
         # labeled candidates ("property: value"): the properties they name, with those values
-        from regen import domains
-
-        db = database or domains.make(domain).database()
+        db = database or domain.database()
         entity = source.strip()
         if entity not in db.assets:
-            raise ConfigError(f"{entity!r} is not an asset of the {domain} database")
+            raise ConfigError(f"{entity!r} is not an asset of the {domain.name} database")
         asked: dict[str, list[str]] = {}
         for c in candidates:
             prop, sep, value = c.partition(":")
             if not sep or prop.strip() not in db.properties:
                 raise ConfigError(f"property candidate {c!r}: write 'property: value' with a property "
-                                  f"of the {domain} database")
+                                  f"of the {domain.name} database")
             asked.setdefault(prop.strip(), []).append(value.strip())
         options = {p: (db.properties[p].description, v) for p, v in asked.items()}
         event = (context or [entity])[0]
-        behavior = Behavior(text=context[-1], domain=domain) if context else None
+        behavior = Behavior(text=context[-1], domain=domain.name) if context else None
         judged, _ = select_properties(llm, domain, context or [entity], event, entity, options,
-                                      property_choices(domain, entity, behavior),
+                                      domain.property_choices(entity, behavior),
                                       named_states(db, entity, event, options))
         return {f"{p}: {v}" for p, j in judged.items() for v in j.accepted}
     raise ValueError(f"unknown edge kind {kind!r}; use event->event, entity->event or property->entity")

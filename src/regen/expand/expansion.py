@@ -6,6 +6,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from regen.assets.database import AssetDatabase
 from regen.core.behavior import Behavior
@@ -13,6 +14,9 @@ from regen.core.graph import Decision, Node, ScenarioGraph, node_id
 from regen.expand import edges
 from regen.expand.dedupe import merge
 from regen.llm.client import LLM
+
+if TYPE_CHECKING:
+    from regen.contract import DomainBackend
 
 log = logging.getLogger(__name__)
 
@@ -44,13 +48,20 @@ class Expander:
 
     def __init__(self, llm: LLM, database: AssetDatabase, limits: Limits | None = None, *,
                  prior: str | None = None, on_update: Callable[[ScenarioGraph, str], None] | None = None,
-                 should_stop: Callable[[], bool] | None = None):
+                 should_stop: Callable[[], bool] | None = None, domain: edges.DomainView | None = None):
         self.llm = llm
         self.db = database
+        self.domain = domain  # the graph's domain, looked up once (on the first graph when None)
         self.limits = limits or Limits()
         self.prior = prior
         self.on_update = on_update
         self.should_stop = should_stop
+
+    def _domain(self, graph: ScenarioGraph) -> edges.DomainView:
+        """The view of the graph's domain, made once."""
+        if self.domain is None or self.domain.name != graph.behavior.domain:
+            self.domain = edges.domain_view(graph.behavior.domain)
+        return self.domain
 
     # --- budget -----------------------------------------------------------------------------
 
@@ -88,18 +99,19 @@ class Expander:
     def _expand_one(self, graph: ScenarioGraph, nid: str, user: Sequence[str],
                     forced: Sequence[str] = ()) -> tuple:
         chain = self.chain(graph, nid)
-        proposed, pid = edges.propose_events(self.llm, graph.behavior.domain, chain, prior=self.prior,
+        proposed, pid = edges.propose_events(self.llm, self._domain(graph), chain, prior=self.prior,
                                              max_causes=self.limits.max_causes)
         # insisted-on causes first, so a model proposal that duplicates one merges into the user's words
         everything = [*forced, *proposed, *user]
         existing = [n.label for n in graph.nodes.values() if n.kind == "event"]
         fresh, merged = merge(everything, existing)
-        judged = edges.judge_events(self.llm, graph.behavior.domain, chain, fresh) if fresh else None
+        judged = edges.judge_events(self.llm, self._domain(graph), chain, fresh) if fresh else None
         return nid, proposed, pid, [*forced, *user], fresh, merged, judged, list(forced)
 
     def _apply(self, graph: ScenarioGraph, result: tuple) -> list[str]:
         nid, proposed, pid, user, fresh, merged, judged, forced = result
         src = graph.nodes[nid]
+        domain = self._domain(graph)
         new_ids: list[str] = []
         if not proposed and not user:
             src.history = src.history + [Decision(action="proposed", by="model", call_id=pid,
@@ -125,15 +137,15 @@ class Expander:
             plausible = cand in judged.accepted
             opinion = judged.accepted[cand] if plausible else judged.rejected.get(cand, "not chosen")
             if cand in insisted:
-                if self._accept(graph, node, nid, self._insisted(graph, cand, plausible, opinion,
+                if self._accept(graph, node, nid, self._insisted(domain, cand, plausible, opinion,
                                                                  judged.call_for(cand))):
                     new_ids.append(node.id)
-            elif plausible and (words := edges.restates_mechanics(graph.behavior.domain, cand)):
+            elif plausible and (words := edges.restates_mechanics(domain, cand)):
                 # the judge accepted it, but it is the robot's own doing, not a context
                 said = Decision(action="accepted", by="model", call_id=judged.call_for(cand), reason=opinion)
                 self._reject(graph, node, nid, said)
                 self._reject(graph, node, nid, Decision(action="rejected", by="rule", reason=(
-                    f"restates the {edges.robot_word(graph.behavior.domain)}'s own command, "
+                    f"restates the {domain.robot}'s own command, "
                     f"programming or mechanics ('{words}'), not a context in which it acts")))
             elif plausible:
                 if self._accept(graph, node, nid, Decision(action="accepted", by="model",
@@ -145,12 +157,12 @@ class Expander:
         return new_ids
 
     @staticmethod
-    def _insisted(graph: ScenarioGraph, cand: str, plausible: bool, opinion: str,
+    def _insisted(domain: edges.DomainView, cand: str, plausible: bool, opinion: str,
                   call_id: str | None) -> Decision:
         """The user's acceptance of a cause given with --cause, carrying the judge's opinion."""
         reason = (f"given with --cause, accepted without judging; the judge said it is "
                   f"{'plausible' if plausible else 'implausible'}: {opinion}")
-        if words := edges.restates_mechanics(graph.behavior.domain, cand):
+        if words := edges.restates_mechanics(domain, cand):
             reason += f"; the mechanics rule would have rejected it ('{words}')"
         return Decision(action="accepted", by="user", call_id=call_id, reason=reason)
 
@@ -226,7 +238,7 @@ class Expander:
             return
         self._check(graph)
         results = self.llm.map(
-            lambda n: edges.select_entities(self.llm, self.db, graph.behavior.domain,
+            lambda n: edges.select_entities(self.llm, self.db, self._domain(graph),
                                             self.chain(graph, n.id)), todo)
         for ev, judged in zip(todo, results, strict=True):
             for name, why in judged.unknown.items():
@@ -261,6 +273,7 @@ class Expander:
         ev = next(graph.nodes[e.target] for e in graph.edges
                   if e.source == ent.id and e.status == "accepted")
         chain = self.chain(graph, ev.id)
+        domain = self._domain(graph)
         asset = ent.asset or ent.label
         params = self.db.parameters_of(asset)
         free = [(p, self.db.properties[p].description) for p in params
@@ -268,12 +281,11 @@ class Expander:
         proposed: dict[str, list[str]] = {}
         pid = None
         if free:
-            proposed, pid = edges.propose_values(self.llm, graph.behavior.domain, chain, ev.label,
+            proposed, pid = edges.propose_values(self.llm, domain, chain, ev.label,
                                                  asset, free, max_values=self.limits.max_values)
         options = edges.property_options(self.db, asset, proposed)
-        judged, sid = (edges.select_properties(self.llm, graph.behavior.domain, chain, ev.label, asset,
-                                               options, edges.property_choices(graph.behavior.domain, asset,
-                                                                               graph.behavior),
+        judged, sid = (edges.select_properties(self.llm, domain, chain, ev.label, asset, options,
+                                               domain.property_choices(asset, graph.behavior),
                                                edges.named_states(self.db, asset, ev.label, options))
                        if options else ({}, None))
         return ent.id, proposed, pid, judged
@@ -338,7 +350,7 @@ def expand(behavior: Behavior, llm: LLM, *, database: AssetDatabase | None = Non
            forced_causes: Sequence[str] = (),
            on_update: Callable[[ScenarioGraph, str], None] | None = None,
            should_stop: Callable[[], bool] | None = None,
-           graph: ScenarioGraph | None = None) -> ScenarioGraph:
+           graph: ScenarioGraph | None = None, backend: DomainBackend | None = None) -> ScenarioGraph:
     """Expand a scenario graph backward from ``behavior`` (paper Alg. 1).
 
     Args:
@@ -354,14 +366,16 @@ def expand(behavior: Behavior, llm: LLM, *, database: AssetDatabase | None = Non
         on_update: called with the graph after each phase step (to save it).
         should_stop: polled before each step; True stops expansion gracefully.
         graph: continue a saved graph instead of starting anew.
+        backend: the behavior domain's backend when the caller has one (else made here, once);
+            every proposal and judgement takes the domain's words from it.
     """
+    domain = (edges.domain_view(behavior.domain) if backend is None
+              else edges.DomainView(behavior.domain, backend))
     if database is None:
-        from regen import domains
-
-        database = domains.make(behavior.domain).database()
+        database = domain.database()
     g = graph or ScenarioGraph.start(behavior)
-    return Expander(llm, database, limits, prior=prior, on_update=on_update,
-                    should_stop=should_stop).run(g, _tidy(candidates), _tidy(forced_causes))
+    return Expander(llm, database, limits, prior=prior, on_update=on_update, should_stop=should_stop,
+                    domain=domain).run(g, _tidy(candidates), _tidy(forced_causes))
 
 
 def _tidy(texts: Sequence[str]) -> list[str]:

@@ -16,10 +16,7 @@ holds.
 from __future__ import annotations
 
 import logging
-from functools import lru_cache
-from importlib import resources
 
-from jinja2 import Environment, StrictUndefined
 from pydantic import Field
 
 from regen.assets.database import AssetDatabase
@@ -49,6 +46,7 @@ from regen.manipulation.placement import (
     structural_problems,
 )
 from regen.manipulation.urdf import AABB, furniture
+from regen.templates import environment
 
 log = logging.getLogger(__name__)
 
@@ -83,12 +81,6 @@ RULES: dict[tuple[str, str], tuple[str, str]] = {
     ("*", "child"): ("near", "table"), ("*", "pet"): ("left_of", "F"),
     ("*", "plant"): ("near", "table"), ("*", "tv"): ("on", "table"),
 }
-
-
-@lru_cache(maxsize=1)
-def _template():
-    text = resources.files("regen.manipulation").joinpath("prompts", "ground.j2").read_text("utf-8")
-    return Environment(undefined=StrictUndefined, autoescape=False).from_string(text)
 
 
 def rule_choice(behavior: BehaviorDef, asset: str, size: tuple[float, float, float]) -> tuple[str, str]:
@@ -246,7 +238,7 @@ def ground_path(path: CausePath, llm: object | None = None, *, seed: int = 0, re
 
 def _ask(llm: object, path: CausePath, behavior: BehaviorDef, geometry, context) -> GroundAnswer:
     db = manipulation_database()
-    prompt = _template().render(
+    prompt = environment("regen.manipulation").get_template("ground.j2").render(
         behavior=path.behavior.text, events=path.events, references=describe_geometry(geometry),
         objects=[{"name": n, "description": db.assets[a].description, "size": s}
                  for n, a, s in context],

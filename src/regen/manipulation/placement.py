@@ -10,7 +10,8 @@ fixed obstacles; support (an object ``on`` or ``in`` something must fit its top 
 reachability (floor objects keep out of the robot's working corridor and of the furniture's
 swing, so they never block the behavior). Structural impossibilities (something ``in`` a table,
 which has no interior, as in the paper's "objects inside a table closet") are reported before
-solving; geometric ones come from CP-SAT's infeasible core over one assumption per relation.
+solving; geometric ones come from CP-SAT as a minimal conflict set over one named constraint per
+relation (:class:`regen.cpsat.NamedModel`).
 """
 
 from __future__ import annotations
@@ -18,8 +19,9 @@ from __future__ import annotations
 import random
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
-from regen.cpsat import make_solver
+from regen.cpsat import NamedModel
 from regen.manipulation.behaviors import BehaviorDef
 from regen.manipulation.urdf import AABB, furniture
 
@@ -85,6 +87,9 @@ class PlacementResult:
     placed: dict[str, Placed] = field(default_factory=dict)
     conflicts: list[str] = field(default_factory=list)
     wall_time: float = 0.0  # [s]
+    # when infeasible: the relations in a minimal conflict set, as "object relation reference"
+    # (dropping any one of them makes the placement feasible); empty when none conflict
+    core: list[str] = field(default_factory=list)
 
 
 @dataclass
@@ -193,20 +198,17 @@ def solve_placement(requests: list[Request], geometry: SceneGeometry, *, seed: i
 
     Each object is kept as close as it may be to a preferred spot [m]: a seeded random point of
     the room, or ``spots[name]`` where given (policy-test variants ask for the room's corners)."""
-    from ortools.sat.python import cp_model
-
     t0 = time.perf_counter()
     refs = geometry.refs
     problems = [p for r in requests for p in structural_problems(r, refs)]
     if problems:
         return PlacementResult("infeasible", conflicts=problems, wall_time=time.perf_counter() - t0)
     rng = random.Random(seed)
-    m = cp_model.CpModel()
-    xs: dict[str, cp_model.IntVar] = {}
-    ys: dict[str, cp_model.IntVar] = {}
+    model = NamedModel()  # one named constraint per relation
+    m = model.m
+    xs: dict[str, Any] = {}
+    ys: dict[str, Any] = {}
     groups: dict[str, list[str]] = {}
-    assumptions: dict[int, str] = {}
-    lits = []
     support: dict[str, tuple[str, float, bool]] = {}
     objective = []
     for r in requests:
@@ -216,9 +218,7 @@ def solve_placement(requests: list[Request], geometry: SceneGeometry, *, seed: i
         x = m.NewIntVar(_cm(ROOM.lo[0]) + hl, _cm(ROOM.hi[0]) - hl, f"x_{r.name}")
         y = m.NewIntVar(_cm(ROOM.lo[1]) + hw, _cm(ROOM.hi[1]) - hw, f"y_{r.name}")
         xs[r.name], ys[r.name] = x, y
-        lit = m.NewBoolVar(f"rel_{r.name}")
-        lits.append(lit)
-        assumptions[lit.Index()] = f"{r.name} {r.relation.replace('_', ' ')} {r.reference}"
+        lit = model.literal(f"{r.name} {r.relation.replace('_', ' ')} {r.reference}")
         rx0, ry0, rx1, ry1 = _cm(ref.lo[0]), _cm(ref.lo[1]), _cm(ref.hi[0]), _cm(ref.hi[1])
         group, z, dyn = "floor", 0.0, False
         if r.relation == "on":
@@ -326,29 +326,26 @@ def solve_placement(requests: list[Request], geometry: SceneGeometry, *, seed: i
                 for i, (_label, box) in enumerate(geometry.keepouts):
                     apart_from_box(a, box, f"keep{i}")
     m.Minimize(sum(objective))
-    m.AddAssumptions(lits)
-    solver = make_solver(time_limit, seed=seed)
-    status = solver.Solve(m)
+    out = model.solve(time_limit, seed=seed)
     wall = time.perf_counter() - t0
-    name = solver.StatusName(status).lower()
-    if status in (cp_model.OPTIMAL, cp_model.FEASIBLE):
+    if out.solved:
         placed = {}
         for r in requests:
             g, z, dyn = support[r.name]
             where = ("floor" if g == "floor" else g.replace("on:", "top of ").replace("in:", "inside ")
                      .replace("under:", "under "))
-            placed[r.name] = Placed(r.name, solver.Value(xs[r.name]) * UNIT,
-                                    solver.Value(ys[r.name]) * UNIT, z, dyn, where)
-        return PlacementResult(name, placed, wall_time=wall)
-    if status == cp_model.INFEASIBLE:
-        core = [assumptions[i] for i in solver.SufficientAssumptionsForInfeasibility()]
-        if core:
+            placed[r.name] = Placed(r.name, out.value(xs[r.name]) * UNIT, out.value(ys[r.name]) * UNIT,
+                                    z, dyn, where)
+        return PlacementResult(out.status, placed, wall_time=wall)
+    if out.status == "infeasible":
+        if out.conflicts:
             why = ("these placements cannot all hold without overlapping each other, the fixed "
-                   "furniture or the robot's working space: " + "; ".join(core))
+                   "furniture or the robot's working space: " + "; ".join(out.conflicts))
         else:
             why = "the objects do not fit the free floor and surfaces at all"
-        return PlacementResult("infeasible", conflicts=[why], wall_time=wall)
-    return PlacementResult(name, conflicts=[f"CP-SAT returned {name} within {time_limit:.0f} s"],
+        return PlacementResult("infeasible", conflicts=[why], core=out.conflicts, wall_time=wall)
+    name = out.cp_status.lower()
+    return PlacementResult(out.status, conflicts=[f"CP-SAT returned {name} within {time_limit:.0f} s"],
                            wall_time=wall)
 
 

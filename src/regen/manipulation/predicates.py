@@ -66,15 +66,24 @@ def _ee_near(trace: Trace, args: list[str], params: dict) -> np.ndarray:
     return np.linalg.norm(ee - tgt, axis=0) <= float(params.get("distance", 0.05))
 
 
+def _height(trace: Trace, b: str, key: str, face: int) -> np.ndarray:
+    """Per step, the height [m] ``key`` recorded for ``b`` (its top surface, the free height
+    under it), else that face of its box (``face``: 4 bottom, 5 top, as :func:`_box` orders them)."""
+    return _num(trace, b, key) if _has(trace, b, key) else _box(trace, b)[face]
+
+
+def _centre_over(trace: Trace, a: str, b: str) -> np.ndarray:
+    """Per step: is the centre of ``a`` within the footprint (x, y) of ``b``?"""
+    x, y = arr(trace, a, "x"), arr(trace, a, "y")
+    x0, x1, y0, y1, _, _ = _box(trace, b)
+    return (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
+
+
 @predicate("on", 2, "the first actor rests on top of the second (its bottom at the other's top, "
            "its centre over the other's footprint)", domains=DOM)
 def _on(trace: Trace, args: list[str], params: dict) -> np.ndarray:
     a, b = args
-    x, y = arr(trace, a, "x"), arr(trace, a, "y")
-    bottom = _box(trace, a)[4]
-    x0, x1, y0, y1, _, z1 = _box(trace, b)
-    top = _num(trace, b, "top") if _has(trace, b, "top") else z1
-    return ((np.abs(bottom - top) <= TOL) & (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1))
+    return (np.abs(_box(trace, a)[4] - _height(trace, b, "top", 5)) <= TOL) & _centre_over(trace, a, b)
 
 
 @predicate("inside", 2, "the first actor's centre is inside the second's interior (cavity) or box",
@@ -98,11 +107,7 @@ def _inside(trace: Trace, args: list[str], params: dict) -> np.ndarray:
            "its free height)", domains=DOM)
 def _under(trace: Trace, args: list[str], params: dict) -> np.ndarray:
     a, b = args
-    x, y = arr(trace, a, "x"), arr(trace, a, "y")
-    top_a = _box(trace, a)[5]
-    x0, x1, y0, y1, z0, _ = _box(trace, b)
-    limit = _num(trace, b, "under") if _has(trace, b, "under") else z0
-    return (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1) & (top_a <= limit + TOL)
+    return _centre_over(trace, a, b) & (_box(trace, a)[5] <= _height(trace, b, "under", 4) + TOL)
 
 
 def _gap(trace: Trace, a: str, b: str) -> np.ndarray:

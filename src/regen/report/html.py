@@ -24,6 +24,7 @@ from regen.core.io import atomic_write_text
 from regen.core.text import clean
 from regen.errors import ConfigError
 from regen.report.load import RunView, ScenarioView, load_run
+from regen.templates import environment
 
 log = logging.getLogger(__name__)
 
@@ -165,13 +166,9 @@ def usage_rows(usage: Any) -> tuple[dict[str, Any] | None, list[tuple[str, dict[
 
 
 def _environment() -> jinja2.Environment:
-    env = jinja2.Environment(
-        loader=jinja2.PackageLoader("regen.report", "templates"),
-        autoescape=True,  # every model- or user-written string is escaped
-        undefined=jinja2.StrictUndefined,  # a typo in the template fails the tests, not silently
-        trim_blocks=True, lstrip_blocks=True,
-        finalize=clean_text,  # the one place text is cleaned: every {{ }} passes through it
-    )
+    # HTML: every model- or user-written string is escaped; clean_text is the one place text is
+    # cleaned (every {{ }} passes through it)
+    env = environment("regen.report", "templates", html=True, finalize=clean_text)
     env.filters.update(value=fmt_value, seconds=fmt_seconds, percent=fmt_percent,
                        time=fmt_time, pretty_json=fmt_json)
     return env

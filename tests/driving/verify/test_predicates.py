@@ -55,3 +55,11 @@ def test_property_predicates_read_states():
     s = call("siren_on", ["car"])
     assert s[:10].all() and not s[10:].any()
     assert not call("door_open", ["car"]).any()  # no such state: false, not an error
+
+
+def test_state_predicates_read_their_own_state_only():
+    # the car's siren is on for the first second; it has no door state, so door_open never holds
+    siren = call("siren_on", ["car"])
+    assert siren[:10].all() and not siren[10:].any()
+    assert not call("door_open", ["car"]).any()
+    assert not call("hazard_lights_on", ["car"]).any()

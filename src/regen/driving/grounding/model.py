@@ -61,7 +61,7 @@ from regen.driving.world.actors import RoleChoice
 from regen.driving.world.ego import EgoTemplate, template_for
 from regen.driving.world.locations import LOCATIONS, location_from_text
 from regen.errors import ConfigError, GroundingError, MalformedAnswerError
-from regen.prompting import render
+from regen.templates import render
 from regen.verify.monitor import validate_fsm
 
 if TYPE_CHECKING:

@@ -2,7 +2,7 @@
 
 Each actor's primitive (:mod:`regen.driving.primitives`) adds its parameters and named
 constraints to one :class:`~regen.driving.world.placement.PlacementModel`; when the model is infeasible,
-the solver's sufficient assumptions, minimised, name the constraints in conflict.
+its minimal conflict set (:meth:`regen.cpsat.NamedModel.solve`) names the constraints in conflict.
 """
 
 from __future__ import annotations
@@ -13,7 +13,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from regen.core.scenario import SolverReport
-from regen.cpsat import make_solver
 from regen.driving.primitives import for_actor
 from regen.driving.world.actors import ActorSpec
 from regen.driving.world.ego import EgoTemplate
@@ -26,22 +25,6 @@ SOLVED = ("s", "v", "t", "d0")  # the parameters a scenario keeps per actor
 class Solution:
     report: SolverReport
     params: dict[str, dict[str, float]] = field(default_factory=dict)  # actor -> s, v, t, d0
-
-
-def _minimise_core(M: PlacementModel, core: list[str], time_limit: float) -> list[str]:
-    """Drop constraints from an infeasible core while the rest stays infeasible (deletion
-    filter), so the verdict names only constraints that really conflict."""
-    keep = list(core)
-    for name in list(core):
-        trial = [c for c in keep if c != name]
-        if not trial:
-            continue
-        M.m.ClearAssumptions()
-        M.m.AddAssumptions([M.lits[c] for c in trial])
-        solver = make_solver(time_limit / 4)
-        if solver.Solve(M.m) == M.cp.INFEASIBLE:
-            keep = trial
-    return keep
 
 
 def placement_model(ego: EgoTemplate, actors: list[ActorSpec]) -> PlacementModel:
@@ -80,22 +63,15 @@ def solve(ego: EgoTemplate, actors: list[ActorSpec], *, seed: int = 0, time_limi
             terms.append(dev)
     if terms:
         M.m.Minimize(sum(terms))
-    M.m.AddAssumptions(list(M.lits.values()))
-    solver = make_solver(time_limit, seed=int(seed))  # one worker: deterministic; the models are tiny
-    status = solver.Solve(M.m)
-    names = {M.cp.OPTIMAL: "optimal", M.cp.FEASIBLE: "feasible", M.cp.INFEASIBLE: "infeasible",
-             M.cp.MODEL_INVALID: "model_invalid"}
-    report = SolverReport(status=names.get(status, "unknown"), wall_time=time.perf_counter() - t0)
-    if status == M.cp.INFEASIBLE:
-        by_index = {lit.Index(): name for name, lit in M.lits.items()}
-        core = [by_index[i] for i in solver.SufficientAssumptionsForInfeasibility() if i in by_index]
-        report.conflicts = _minimise_core(M, core, time_limit) or ["(no core found)"]
-        report.wall_time = time.perf_counter() - t0
+    out = M.solve(time_limit, seed=int(seed))  # one worker: deterministic; the models are tiny
+    report = SolverReport(status=out.status, wall_time=time.perf_counter() - t0)
+    if out.status == "infeasible":
+        report.conflicts = out.conflicts or ["(no core found)"]
         return Solution(report)
-    if status not in (M.cp.OPTIMAL, M.cp.FEASIBLE):
-        report.conflicts = [f"the solver stopped without a solution ({solver.StatusName(status)})"]
+    if not out.solved:
+        report.conflicts = [f"the solver stopped without a solution ({out.cp_status})"]
         return Solution(report)
-    return Solution(report, solved_params(M, solver.Value, actors))
+    return Solution(report, solved_params(M, out.value, actors))
 
 
 __all__ = ["SOLVED", "ActorSpec", "Solution", "placement_model", "solve", "solved_params"]

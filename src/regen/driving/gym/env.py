@@ -35,7 +35,8 @@ import numpy as np
 from regen.driving.gym import observation as ob
 from regen.driving.gym.episode import Episode
 from regen.driving.testing.policies import Observation
-from regen.driving.verify.collisions import DOOR_WIDTH, LIGHT_REACH, MIN_CLOSING_SPEED, STOP_LINE
+from regen.driving.verify.collisions import LIGHT_REACH, MIN_CLOSING_SPEED, to_stop_line
+from regen.driving.world.geometry import corners, door_footprint, gap, overlap
 from regen.errors import ConfigError, SimulationError
 
 PROGRESS_REWARD = 0.1  # reward per metre along the route [1/m]
@@ -82,38 +83,6 @@ class _Route:
         return float(s[int(np.argmin(dist))])
 
 
-def _corners(x: float, y: float, h: float, length: float, width: float) -> list[tuple[float, float]]:
-    c, s = math.cos(h), math.sin(h)
-    return [(x + lo * length / 2 * c - la * width / 2 * s, y + lo * length / 2 * s + la * width / 2 * c)
-            for lo, la in ((1, 1), (-1, 1), (-1, -1), (1, -1))]
-
-
-def _overlap(ca: list, cb: list) -> bool:
-    """Separating-axis test of two rectangles given by corners (touching counts)."""
-    for corners in (ca, cb):
-        for i in range(2):
-            (x0, y0), (x1, y1) = corners[i], corners[i + 1]
-            ax, ay = x1 - x0, y1 - y0
-            pa = [px * ax + py * ay for px, py in ca]
-            pb = [px * ax + py * ay for px, py in cb]
-            if max(pa) < min(pb) or max(pb) < min(pa):
-                return False
-    return True
-
-
-def _point_segment(p, a, b) -> float:
-    abx, aby = b[0] - a[0], b[1] - a[1]
-    t = ((p[0] - a[0]) * abx + (p[1] - a[1]) * aby) / max(abx * abx + aby * aby, 1e-12)
-    t = min(max(t, 0.0), 1.0)
-    return math.hypot(p[0] - a[0] - t * abx, p[1] - a[1] - t * aby)
-
-
-def _gap(ca: list, cb: list) -> float:
-    """Distance [m] between two non-overlapping rectangles given by corners."""
-    return min(_point_segment(p, q[j], q[(j + 1) % 4]) for p_set, q in ((ca, cb), (cb, ca))
-               for p in p_set for j in range(4))
-
-
 class _Safety:
     """Collisions, infractions and TTC of the ego step by step from observations (as
     :mod:`regen.driving.verify.collisions` does on a whole trace)."""
@@ -138,15 +107,13 @@ class _Safety:
             new += 1
         self.on_road = on_road
         hit_now = False
-        ce = _corners(ego.x, ego.y, ego.heading, ego.length, ego.width)
+        ce = corners(ego.x, ego.y, ego.heading, ego.length, ego.width)
         evx, evy = ego.speed * math.cos(ego.heading), ego.speed * math.sin(ego.heading)
         for a in obs.actors:
             if a.category == "light" or a.length <= 0 or a.width <= 0:
                 continue
-            shift = DOOR_WIDTH / 2 if a.door == "open" else 0.0  # an open door widens the left side
-            x, y = a.x - shift * math.sin(a.heading), a.y + shift * math.cos(a.heading)
-            ca = _corners(x, y, a.heading, a.length, a.width + 2 * shift)
-            if _overlap(ce, ca):
+            x, y, w = (float(v) for v in door_footprint(a.x, a.y, a.heading, a.width, a.door == "open"))
+            if overlap(ego.x, ego.y, ego.heading, ego.length, ego.width, x, y, a.heading, a.length, w):
                 hit_now, self.min_ttc = True, 0.0
                 if self.collision_with is None:
                     self.collision_with = a.name
@@ -154,30 +121,31 @@ class _Safety:
             rx, ry = x - ego.x, y - ego.y
             closing = -(rx * (a.vx - evx) + ry * (a.vy - evy)) / max(math.hypot(rx, ry), 1e-9)
             if closing > MIN_CLOSING_SPEED:
-                self.min_ttc = min(self.min_ttc, _gap(ce, ca) / closing)
+                ca = corners(x, y, a.heading, a.length, w)
+                self.min_ttc = min(self.min_ttc, float(gap(ce, ca)) / closing)
         if self.prev is not None:
             new += self._red_lights(self.prev, obs)
         self.prev = obs
         return hit_now, new
 
     def _red_lights(self, prev: Observation, obs: Observation) -> int:
+        """Red lights whose stop line the ego crossed between ``prev`` and ``obs``, as
+        :func:`regen.driving.verify.collisions.red_light_events` finds them in a trace."""
         new = 0
         for a in obs.actors:
             if a.category != "light" or a.light_state != "red":
                 continue
-            (lon0, _), (lon1, lat1) = _to_stop_line(prev.ego, a), _to_stop_line(obs.ego, a)
+            (lon0, _), (lon1, lat1) = _stop_line(prev.ego, a), _stop_line(obs.ego, a)
             if lon0 > 0 >= lon1 and abs(lat1) <= LIGHT_REACH:
                 self.infractions.append(f"ego ran the red light {a.name} at t={obs.t:.1f} s")
                 new += 1
         return new
 
 
-def _to_stop_line(ego, light) -> tuple[float, float]:
-    """(distance [m] from the ego's front to the light's stop line along its heading, the
-    light's lateral offset [m]), as :func:`regen.driving.verify.collisions.red_light_events`."""
-    c, s = math.cos(ego.heading), math.sin(ego.heading)
-    dx, dy = light.x - ego.x, light.y - ego.y
-    return dx * c + dy * s - STOP_LINE - ego.length / 2, -dx * s + dy * c
+def _stop_line(ego, light) -> tuple[float, float]:
+    """(distance [m] from the ego's front to the light's stop line, the light's lateral offset [m])."""
+    lon, lat = to_stop_line(ego.x, ego.y, ego.heading, ego.length, light.x, light.y)
+    return float(lon), float(lat)
 
 
 def _entries(runs) -> tuple[list[_Entry], list[str]]:

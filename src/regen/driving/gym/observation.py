@@ -27,6 +27,8 @@ import math
 import numpy as np
 
 from regen.driving.testing.policies import MAX_ACCEL, MAX_BRAKE, ROUTE_AHEAD, Action, Observation
+from regen.driving.world.actors import CATEGORIES as ACTOR_CATEGORIES
+from regen.driving.world.geometry import to_local
 
 N_ROUTE = 10  # route points in the observation
 ROUTE_SPACING = ROUTE_AHEAD / N_ROUTE  # [m] between route points (6 m)
@@ -39,7 +41,7 @@ MAX_SPEED = 60.0  # [m/s] bound of speeds and velocities
 MAX_SIZE = 30.0  # [m] bound of lengths and widths
 MAX_TIME = 600.0  # [s] bound of time_left
 
-CATEGORIES = ("vehicle", "pedestrian", "static", "light")
+CATEGORIES = tuple(c for c in ACTOR_CATEGORIES if c != "sensor")  # sensors are not observed
 LIGHTS = ("red", "yellow", "green")
 FLAGS = ("siren", "brake_lights", "hazard_lights", "door")
 FLAG_ON = {"siren": "on", "brake_lights": "on", "hazard_lights": "on", "door": "open"}
@@ -151,19 +153,18 @@ def _resampled_route(obs: Observation) -> list[tuple[float, float]]:
 def encode(obs: Observation, time_left: float) -> np.ndarray:
     """The observation vector (layout in the module docstring); ``time_left`` [s]."""
     ego = obs.ego
-    c, s = math.cos(ego.heading), math.sin(ego.heading)
 
     def local(x: float, y: float) -> tuple[float, float]:
-        dx, dy = x - ego.x, y - ego.y
-        return dx * c + dy * s, -dx * s + dy * c
+        return to_local(ego.x, ego.y, ego.heading, x, y)
 
-    vec = [ego.x, ego.y, c, s, ego.speed, ego.cruise_speed, ego.length, ego.width, time_left]
+    vec = [ego.x, ego.y, math.cos(ego.heading), math.sin(ego.heading), ego.speed, ego.cruise_speed,
+           ego.length, ego.width, time_left]
     for x, y in _resampled_route(obs):
         vec += local(x, y)
     nearest = sorted(obs.actors, key=lambda a: (math.hypot(a.x - ego.x, a.y - ego.y), a.name))
     for a in nearest[:N_ACTORS]:
         rel = a.heading - ego.heading
-        vx, vy = a.vx * c + a.vy * s, -a.vx * s + a.vy * c
+        vx, vy = to_local(0.0, 0.0, ego.heading, a.vx, a.vy)  # the velocity turned into the ego frame
         vec += [1.0, *local(a.x, a.y), math.cos(rel), math.sin(rel), vx, vy, a.length, a.width]
         vec += [float(a.category == cat) for cat in CATEGORIES]
         vec += [float(a.light_state == light) for light in LIGHTS]

@@ -21,6 +21,8 @@ from PIL import Image, ImageDraw, ImageFont
 
 from regen.core.trace import Trace
 from regen.driving.render.roads import FRAME_W, MAP_H, View
+from regen.driving.world.actors import actor_category
+from regen.driving.world.geometry import corners, to_world
 from regen.errors import RegenError
 
 log = logging.getLogger(__name__)
@@ -81,19 +83,20 @@ def _is_on(value: object) -> bool:
 
 
 def _category(name: str, kind: str, asset: str, db) -> str:
+    """The drawing category: :func:`regen.driving.world.actors.actor_category` told apart further
+    by what the asset database gives it; 'other' for an asset it does not know."""
     if name == "ego" or kind == "ego":
         return "ego"
-    cat = db.category_of(asset) if db is not None else None
-    if cat == "vehicles":
-        spec = db.assets.get(asset)
-        # emergency vehicles are the ones the database gives a siren
-        return "emergency" if spec is not None and "siren" in spec.properties else "vehicle"
-    if cat == "static objects":
-        spec = db.assets.get(asset)
+    spec = db.assets.get(asset) if db is not None else None
+    if spec is None:
+        return "other"
+    cat = actor_category(asset, kind)
+    if cat == "vehicle" and "siren" in spec.properties:  # emergency vehicles have a siren
+        return "emergency"
+    if cat == "static" and "door" in spec.properties:
         # a static object with doors is a parked vehicle: draw it as one (doors, hazards)
-        return "parked" if spec is not None and "door" in spec.properties else "static"
-    return {"pedestrians": "pedestrian", "traffic": "traffic_light",
-            "sensors": "sensor"}.get(cat or "", "other")
+        return "parked"
+    return "traffic_light" if cat == "light" else cat
 
 
 def _headings(x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -150,15 +153,9 @@ def text_font(size: int, bold: bool = False):
         return ImageFont.load_default(size=size)
 
 
-def _rect(cx, cy, h, length, width, along=0.0, across=0.0):
+def _rect(cx, cy, h, length, width, along=0.0, across=0.0) -> list[tuple[float, float]]:
     """Corners [m] of a length x width rectangle centred ``along``/``across`` from (cx, cy)."""
-    c, s = math.cos(h), math.sin(h)
-    ox, oy = cx + along * c - across * s, cy + along * s + across * c
-    out = []
-    for a, b in ((0.5, 0.5), (0.5, -0.5), (-0.5, -0.5), (-0.5, 0.5)):
-        u, v = a * length, b * width
-        out.append((ox + u * c - v * s, oy + u * s + v * c))
-    return out
+    return [(float(x), float(y)) for x, y in corners(cx, cy, h, length, width, along=along, across=across)]
 
 
 class Canvas:
@@ -238,13 +235,10 @@ def _draw_vehicle(f: Canvas, a: Actor, i: int, t: float) -> None:
     if _is_on(a.state("hazard_lights", i)) and int(t * 3) % 2 == 0:
         for along in (0.45, -0.45):
             for across in (0.45, -0.45):
-                f.disk(x + along * length * math.cos(h) - across * width * math.sin(h),
-                       y + along * length * math.sin(h) + across * width * math.cos(h),
-                       max(2.5, 0.3 * s), HAZARD)
+                f.disk(*to_world(x, y, h, along * length, across * width), max(2.5, 0.3 * s), HAZARD)
     if str(a.state("door", i)).lower() == "open":
         # driver's door, hinged a quarter from the front on the left, swung out 60 degrees
-        hx = x + 0.2 * length * math.cos(h) - 0.5 * width * math.sin(h)
-        hy = y + 0.2 * length * math.sin(h) + 0.5 * width * math.cos(h)
+        hx, hy = to_world(x, y, h, 0.2 * length, 0.5 * width)
         door = max(1.0, 6 / s)
         ang = h + math.pi - math.radians(60)
         f.draw.line([f.px(hx, hy), f.px(hx + door * math.cos(ang), hy + door * math.sin(ang))],

@@ -12,14 +12,13 @@ from __future__ import annotations
 
 import math
 import re
-from functools import lru_cache
-from importlib import resources
 
 import jinja2
 
 from regen.driving.world.plan import ActorPlan, LaneChange
 from regen.driving.world.triggers import KINDS, Trigger, scenic_source
 from regen.errors import ConfigError
+from regen.templates import environment
 
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,63}$")
 _SCENIC_CLASSES = {"Car", "Pedestrian", "Object"}
@@ -74,12 +73,10 @@ def _lane_change(lane_change: LaneChange | None) -> str:
     return "(" + ", ".join(_num(v) for v in lane_change.spec()) + ")"
 
 
-@lru_cache(maxsize=1)
 def _template() -> jinja2.Template:
-    text = resources.files("regen.driving.simulation").joinpath("program.scenic.j2").read_text("utf-8")
-    env = jinja2.Environment(autoescape=False, undefined=jinja2.StrictUndefined,
-                             keep_trailing_newline=True)
-    return env.from_string(text)
+    """``program.scenic.j2`` beside this module: plain text, its last newline kept."""
+    return environment("regen.driving.simulation", ".", keep_trailing_newline=True).get_template(
+        "program.scenic.j2")
 
 
 def write_program(plans: list[ActorPlan], *, map_path: str, dt: float, max_steps: int,

@@ -11,7 +11,7 @@ from regen.driving.simulation.program import write_program
 from regen.driving.world.maps import ensure_map, geometry
 
 
-def _timing(scenario: Scenario) -> tuple[float, int, int]:
+def timing(scenario: Scenario) -> tuple[float, int, int]:
     """Step [s], step count and seed of a scenario's world."""
     dt = float(scenario.world.get("dt", 0.1))
     steps = int(round(float(scenario.world.get("duration", 16.0)) / dt))
@@ -21,7 +21,7 @@ def _timing(scenario: Scenario) -> tuple[float, int, int]:
 def scenic_program(scenario: Scenario) -> str:
     """The Scenic program of a grounded scenario (the map is generated if needed)."""
     _, plans = plans_for(scenario)
-    dt, steps, seed = _timing(scenario)
+    dt, steps, seed = timing(scenario)
     return write_program(plans, map_path=str(ensure_map(str(scenario.world["map"]))), dt=dt,
                          max_steps=steps, narrative=scenario.narrative, seed=seed,
                          title=scenario.behavior.text)
@@ -34,7 +34,7 @@ def simulate_scenario(scenario: Scenario) -> SimulationOutput:
 
     _, plans = plans_for(scenario)
     name = str(scenario.world["map"])
-    dt, steps, seed = _timing(scenario)
+    dt, steps, seed = timing(scenario)
     run = run_program(scenic_program(scenario), steps=steps, dt=dt, seed=seed)
     t0 = time.perf_counter()
     trace = build_trace(run, plans, geometry(name), map_path=str(ensure_map(name)), seed=seed,
@@ -44,4 +44,4 @@ def simulate_scenario(scenario: Scenario) -> SimulationOutput:
     return SimulationOutput(trace=trace, timings=timings)
 
 
-__all__ = ["scenic_program", "simulate_scenario"]
+__all__ = ["scenic_program", "simulate_scenario", "timing"]

@@ -27,6 +27,7 @@ import numpy as np
 
 from regen.core.scenario import Scenario
 from regen.core.trace import Trace
+from regen.driving.simulation.record import BRAKE_LIGHT_DECEL
 from regen.driving.simulation.run import snapshot
 from regen.driving.testing.policies import (
     MAX_ACCEL,
@@ -37,6 +38,7 @@ from regen.driving.testing.policies import (
     Observation,
     as_action,
 )
+from regen.driving.world.actors import actor_category
 from regen.driving.world.plan import ActorPlan
 from regen.driving.world.triggers import warped_time
 from regen.errors import SimulationError
@@ -44,7 +46,6 @@ from regen.harness.timeout import PolicyFailure
 from regen.harness.timeout import call_with_timeout as _call_with_timeout
 
 STEP_TIMEOUT = 1.0  # default wall time a policy may take per step [s]
-BRAKE_LIGHT_DECEL = 1.0  # as regen.driving.simulation.record: brake lights show above this decel [m/s^2]
 VISIBLE = ("light_state", "siren", "brake_lights", "hazard_lights", "door")
 
 
@@ -84,14 +85,13 @@ def prepare(scenario: Scenario) -> Prepared:
     from regen.driving.grounding.rules import plans_for
     from regen.driving.simulation.program import write_program
     from regen.driving.simulation.run import compile_program
+    from regen.driving.simulation.scenario import timing
     from regen.driving.world.maps import ensure_map
 
     template, plans = plans_for(scenario)
     plans = [dataclasses.replace(p, scenic_behavior="", schedule=[]) if p.name == "ego" else p
              for p in plans]
-    dt = float(scenario.world.get("dt", 0.1))  # as regen.driving.backend
-    steps = int(round(float(scenario.world.get("duration", 16.0)) / dt))
-    seed = int(scenario.world.get("seed", 0))
+    dt, steps, seed = timing(scenario)
     name = str(scenario.world["map"])
     map_path = str(ensure_map(name))
     text = write_program(plans, map_path=map_path, dt=dt, max_steps=steps,
@@ -104,14 +104,6 @@ def prepare(scenario: Scenario) -> Prepared:
     return Prepared(scenario=scenario, plans=plans, template=template, compiled=_COMPILED[text],
                     dt=dt, steps=steps, seed=seed, map_name=name, map_path=map_path,
                     compile_time=time.perf_counter() - t0)
-
-
-def _category(p: ActorPlan) -> str:
-    if p.cls == "Pedestrian":
-        return "pedestrian"
-    if p.asset == "traffic_light":
-        return "light"
-    return "static" if p.kind == "object" else "vehicle"
 
 
 def _at(schedule: list[tuple[float, str]], t: float) -> str | None:
@@ -184,7 +176,7 @@ class _Driver:
                 decel = (self.log[-2][i][3] - self.log[-1][i][3]) / self.prep.dt
                 broken = p.states.get("brake_lights", [(0.0, "")])[-1][1] == "broken"
                 vis["brake_lights"] = "on" if decel > BRAKE_LIGHT_DECEL and not broken else "off"
-            actors.append(ActorState(name=name, category=_category(p), asset=p.asset,
+            actors.append(ActorState(name=name, category=actor_category(p.asset, p.kind), asset=p.asset,
                                      x=float(o.position.x), y=float(o.position.y),
                                      heading=math.atan2(math.sin(h), math.cos(h)),
                                      vx=float(o.velocity.x), vy=float(o.velocity.y),

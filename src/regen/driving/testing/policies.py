@@ -33,12 +33,12 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from regen.driving.world.geometry import DOOR_WIDTH
 from regen.errors import ConfigError
 
 MAX_ACCEL = 5.6  # Newtonian full-throttle acceleration [m/s^2]
 MAX_BRAKE = 6.8  # Newtonian full-brake deceleration [m/s^2]
 ROUTE_AHEAD = 60.0  # the observation's route reaches this far ahead of the ego [m]
-DOOR_WIDTH = 1.0  # [m] an open car door sticks out this far (as regen.driving.verify.collisions)
 
 Point = tuple[float, float]  # (x, y) [m], map frame
 

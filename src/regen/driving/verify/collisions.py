@@ -29,13 +29,12 @@ from itertools import combinations
 import numpy as np
 
 from regen.core.trace import ActorTrack, Trace
-from regen.driving.world.actors import PEDESTRIAN_ASSETS
+from regen.driving.world.actors import actor_category
+from regen.driving.world.geometry import DOOR_WIDTH, corners, door_footprint, gap, overlap, to_local
 
-LIGHT_ASSETS = frozenset({"traffic_light"})
 MIN_CLOSING_SPEED = 0.1  # [m/s] below this two actors are not approaching: TTC is infinite
 LIGHT_REACH = 12.0  # [m] lateral distance from the ego's path within which a light applies
 STOP_LINE = 2.0  # [m] the stop line lies this far before the light (along the ego's path)
-DOOR_WIDTH = 1.0  # [m] an open door sticks out this far from the car's left side
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -97,58 +96,7 @@ class SafetyReport:
 
 def category(track: ActorTrack) -> str:
     """'vehicle', 'pedestrian', 'static', 'light' or 'sensor' from a trace track."""
-    if track.kind == "sensor":
-        return "sensor"
-    if track.asset in PEDESTRIAN_ASSETS:
-        return "pedestrian"
-    if track.asset in LIGHT_ASSETS:
-        return "light"
-    if track.kind == "object":
-        return "static"
-    return "vehicle"
-
-
-def _corners(x: np.ndarray, y: np.ndarray, h: np.ndarray, length: float, width: float) -> np.ndarray:
-    """(steps, 4, 2) corners of the rectangle, counter-clockwise."""
-    c, s = np.cos(h), np.sin(h)
-    out = np.empty((x.size, 4, 2))
-    for k, (lo, la) in enumerate(((1, 1), (-1, 1), (-1, -1), (1, -1))):
-        dl, dw = lo * length / 2, la * width / 2
-        out[:, k, 0] = x + dl * c - dw * s
-        out[:, k, 1] = y + dl * s + dw * c
-    return out
-
-
-def overlap(xa, ya, ha, la, wa, xb, yb, hb, lb, wb) -> np.ndarray:
-    """Per step: do rectangle a (centre, heading [rad], length, width [m]) and b overlap?"""
-    xa, ya, ha, xb, yb, hb = (np.asarray(v, dtype=float) for v in (xa, ya, ha, xb, yb, hb))
-    d = np.stack([xb - xa, yb - ya], axis=-1)
-    axes_a = [np.stack([np.cos(ha), np.sin(ha)], -1), np.stack([-np.sin(ha), np.cos(ha)], -1)]
-    axes_b = [np.stack([np.cos(hb), np.sin(hb)], -1), np.stack([-np.sin(hb), np.cos(hb)], -1)]
-    out = np.ones(d.shape[0], dtype=bool)
-    for axis in axes_a + axes_b:
-        ra = sum(e * np.abs(np.sum(ax * axis, -1)) for e, ax in zip((la / 2, wa / 2), axes_a, strict=True))
-        rb = sum(e * np.abs(np.sum(ax * axis, -1)) for e, ax in zip((lb / 2, wb / 2), axes_b, strict=True))
-        out &= np.abs(np.sum(d * axis, -1)) <= ra + rb
-    return out
-
-
-def _point_segment(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Distance from points p to segments ab; all (steps, 2)."""
-    ab = b - a
-    t = np.clip(np.sum((p - a) * ab, -1) / np.maximum(np.sum(ab * ab, -1), 1e-12), 0.0, 1.0)
-    q = a + t[:, None] * ab
-    return np.hypot(*(p - q).T)
-
-
-def gap(ca: np.ndarray, cb: np.ndarray, overlapping: np.ndarray) -> np.ndarray:
-    """Distance [m] between two rectangles given by corners (steps, 4, 2); 0 where they overlap."""
-    best = np.full(ca.shape[0], np.inf)
-    for p_set, q_set in ((ca, cb), (cb, ca)):
-        for i in range(4):
-            for j in range(4):
-                best = np.minimum(best, _point_segment(p_set[:, i], q_set[:, j], q_set[:, (j + 1) % 4]))
-    return np.where(overlapping, 0.0, best)
+    return actor_category(track.asset, track.kind)
 
 
 def _velocity(trace: Trace, track: ActorTrack) -> tuple[np.ndarray, np.ndarray]:
@@ -185,15 +133,21 @@ def footprint(track: ActorTrack, x: np.ndarray, y: np.ndarray, h: np.ndarray):
     width = np.full(x.size, float(track.width))
     if not door:
         return x, y, width
-    open_ = np.array([v == "open" for v in door], dtype=bool)
-    shift = np.where(open_, DOOR_WIDTH / 2, 0.0)
-    return x - shift * np.sin(h), y + shift * np.cos(h), width + 2 * shift
+    return door_footprint(x, y, h, width, np.array([v == "open" for v in door], dtype=bool))
 
 
 def _starts(mask: np.ndarray) -> np.ndarray:
     """Indices where a run of True begins."""
     prev = np.concatenate([[False], mask[:-1]])
     return np.flatnonzero(mask & ~prev)
+
+
+def to_stop_line(x, y, heading, length, light_x, light_y) -> tuple[np.ndarray, np.ndarray]:
+    """(distance [m] from the front of an ego of ``length`` [m] centred at (x, y) facing
+    ``heading`` to the stop line of the light at (light_x, light_y), the light's offset [m] to
+    the ego's left); positive distance: the line is still ahead."""
+    lon, lat = to_local(x, y, heading, light_x, light_y)
+    return lon - STOP_LINE - length / 2, lat
 
 
 def red_light_events(trace: Trace, ego: str = "ego") -> list[Event]:
@@ -207,10 +161,7 @@ def red_light_events(trace: Trace, ego: str = "ego") -> list[Event]:
         states = a.states.get("light_state")
         if category(a) != "light" or not states:
             continue
-        lx, ly = np.asarray(a.x, float), np.asarray(a.y, float)
-        c, s = np.cos(eh), np.sin(eh)
-        lon = (lx - ex) * c + (ly - ey) * s - STOP_LINE - e.length / 2  # front to stop line [m]
-        lat = -(lx - ex) * s + (ly - ey) * c
+        lon, lat = to_stop_line(ex, ey, eh, e.length, np.asarray(a.x, float), np.asarray(a.y, float))
         red = np.array([v is not None and str(v) == "red" for v in states], dtype=bool)
         crossed = np.zeros(trace.steps, dtype=bool)
         crossed[1:] = (lon[:-1] > 0) & (lon[1:] <= 0)
@@ -242,7 +193,7 @@ def analyze(trace: Trace, *, ego: str = "ego") -> SafetyReport:
         xa, ya, wa = footprint(ta, xa, ya, ha)
         xb, yb, wb = footprint(tb, xb, yb, hb)
         hit = overlap(xa, ya, ha, ta.length, wa, xb, yb, hb, tb.length, wb)
-        g = gap(_corners(xa, ya, ha, ta.length, wa), _corners(xb, yb, hb, tb.length, wb), hit)
+        g = gap(corners(xa, ya, ha, ta.length, wa), corners(xb, yb, hb, tb.length, wb), hit)
         (vax, vay), (vbx, vby) = _velocity(trace, ta), _velocity(trace, tb)
         rx, ry = xb - xa, yb - ya
         dist = np.maximum(np.hypot(rx, ry), 1e-9)
@@ -260,5 +211,5 @@ def analyze(trace: Trace, *, ego: str = "ego") -> SafetyReport:
     return SafetyReport(events=events, pairs=pairs, colliding=matrix)
 
 
-__all__ = ["Event", "PairSafety", "SafetyReport", "analyze", "category", "checked_pairs", "footprint", "gap",
-           "off_road_events", "overlap", "red_light_events"]
+__all__ = ["DOOR_WIDTH", "Event", "PairSafety", "SafetyReport", "analyze", "category", "checked_pairs",
+           "footprint", "gap", "off_road_events", "overlap", "red_light_events", "to_stop_line"]

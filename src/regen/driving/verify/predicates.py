@@ -8,6 +8,8 @@ the property layer ('siren', 'door', 'brake_lights', 'light_state', 'gnss_signal
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from regen.core.trace import Trace
@@ -168,24 +170,21 @@ def _light_is(trace: Trace, args: list[str], params: dict) -> np.ndarray:
     return _equals(trace, args[0], "light_state", str(params.get("value", "red")))
 
 
-@predicate("siren_on", 1, "the actor's siren and flashing lights are on", domains=D)
-def _siren_on(trace: Trace, args: list[str], params: dict) -> np.ndarray:
-    return _equals(trace, args[0], "siren", "on")
+def _state_is(key: str, value: str) -> Callable[[Trace, list[str], dict], np.ndarray]:
+    """A predicate: the actor's state ``key`` is ``value`` at each step."""
+    def holds(trace: Trace, args: list[str], params: dict) -> np.ndarray:
+        return _equals(trace, args[0], key, value)
+
+    return holds
 
 
-@predicate("door_open", 1, "the actor's driver-side door is open", domains=D)
-def _door_open(trace: Trace, args: list[str], params: dict) -> np.ndarray:
-    return _equals(trace, args[0], "door", "open")
-
-
-@predicate("brake_lights_on", 1, "the actor's brake lights are lit", domains=D)
-def _brake_lights_on(trace: Trace, args: list[str], params: dict) -> np.ndarray:
-    return _equals(trace, args[0], "brake_lights", "on")
-
-
-@predicate("hazard_lights_on", 1, "the actor's hazard warning lights are on", domains=D)
-def _hazard_lights_on(trace: Trace, args: list[str], params: dict) -> np.ndarray:
-    return _equals(trace, args[0], "hazard_lights", "on")
+# (predicate, state, value, meaning): the one-actor predicates that read one state's value
+for _name, _key, _value, _doc in (
+        ("siren_on", "siren", "on", "the actor's siren and flashing lights are on"),
+        ("door_open", "door", "open", "the actor's driver-side door is open"),
+        ("brake_lights_on", "brake_lights", "on", "the actor's brake lights are lit"),
+        ("hazard_lights_on", "hazard_lights", "on", "the actor's hazard warning lights are on")):
+    predicate(_name, 1, _doc, domains=D)(_state_is(_key, _value))
 
 
 @predicate("signal_degraded", 1, "the sensor's signal is not nominal (GNSS noisy or jammed, "

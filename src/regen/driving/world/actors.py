@@ -14,6 +14,10 @@ from dataclasses import dataclass, field
 PEDESTRIAN_ASSETS = frozenset({"adult", "child", "pedestrian_group"})
 # Static objects that are vehicles: a Scenic Car, parked half on the curb.
 PARKED_ASSETS = frozenset({"parked_car"})
+# Assets that are traffic lights: no footprint that collides, a light state the ego must obey.
+LIGHT_ASSETS = frozenset({"traffic_light"})
+# What :func:`actor_category` returns (sensors ride on an actor and are never observed or checked).
+CATEGORIES = ("vehicle", "pedestrian", "static", "light", "sensor")
 # The graph's properties that say how an actor moves; the ones it sets are binding on grounding.
 GRAPH_CHOICES = ("behavior", "start_location", "target_speed")
 
@@ -47,15 +51,32 @@ class ActorSpec(RoleChoice):
     size: tuple[float, float, float]  # length, width, height [m]
 
 
+def actor_category(asset: str, kind: str) -> str:
+    """'vehicle', 'pedestrian', 'static', 'light' or 'sensor' of an actor from its asset and its
+    database ``kind`` ('agent', 'object', 'sensor', 'ego'): what collisions, observations and
+    pictures tell apart. The ego is a 'vehicle'."""
+    if kind == "sensor":
+        return "sensor"
+    if asset in PEDESTRIAN_ASSETS:
+        return "pedestrian"
+    if asset in LIGHT_ASSETS:
+        return "light"
+    if kind == "object":
+        return "static"
+    return "vehicle"
+
+
 def scenic_class(asset: str, kind: str) -> str:
     """The Scenic class of an asset of database ``kind`` ('' for sensors: not Scenic objects)."""
-    if kind == "sensor":
+    cat = actor_category(asset, kind)
+    if cat == "sensor":
         return ""
-    if asset in PEDESTRIAN_ASSETS:
+    if cat == "pedestrian":
         return "Pedestrian"
-    if kind == "object" and asset not in PARKED_ASSETS:
+    if cat in ("static", "light") and asset not in PARKED_ASSETS:
         return "Object"
     return "Car"
 
 
-__all__ = ["GRAPH_CHOICES", "PARKED_ASSETS", "PEDESTRIAN_ASSETS", "ActorSpec", "RoleChoice", "scenic_class"]
+__all__ = ["CATEGORIES", "GRAPH_CHOICES", "LIGHT_ASSETS", "PARKED_ASSETS", "PEDESTRIAN_ASSETS", "ActorSpec",
+           "RoleChoice", "actor_category", "scenic_class"]

@@ -2,8 +2,9 @@
 
 Units inside the model are integers: decimetres [dm], decimetres per second [dm/s] and
 deciseconds [ds]. Every constraint a primitive requires goes behind its own enforcement literal
-named ``"actor: what it requires"``; when the model is infeasible, the solver's sufficient
-assumptions name the constraints in conflict (see :func:`regen.driving.grounding.placement.solve`).
+named ``"actor: what it requires"`` (a :class:`regen.cpsat.NamedModel`); when the model is
+infeasible, its minimal conflict set names the constraints in conflict (see
+:func:`regen.driving.grounding.placement.solve`).
 
 The ego's motion is known from its template: before its event it drives at a constant speed,
 so its position along the frame at time t [s] is ``s_event - v_event * (t_event - t)``.
@@ -13,42 +14,20 @@ from __future__ import annotations
 
 from typing import Any
 
+from regen.cpsat import NamedModel
 from regen.driving.world.actors import ActorSpec
 from regen.driving.world.ego import EGO_SIZE, EgoTemplate
-from regen.errors import DependencyNotInstalled
 
 DM = 10  # decimetres per metre (and deciseconds per second)
 
 
-def cp_model() -> Any:
-    """The ``ortools.sat.python.cp_model`` module."""
-    try:
-        from ortools.sat.python import cp_model as cp
-    except ModuleNotFoundError as exc:  # ortools is a core dependency; be explicit anyway
-        raise DependencyNotInstalled("ortools", "driving", "solving scenario parameters") from exc
-    return cp
-
-
-class PlacementModel:
+class PlacementModel(NamedModel):
     """One CP-SAT model of the actors around an ego template."""
 
     def __init__(self, ego: EgoTemplate):
-        self.cp = cp_model()
-        self.m = self.cp.CpModel()
+        super().__init__()
         self.ego = ego
-        self.lits: dict[str, Any] = {}  # constraint name -> its enforcement literal
         self.vars: dict[str, dict[str, Any]] = {}  # actor -> parameter -> variable
-
-    def require(self, name: str, expr: Any) -> None:
-        """Add ``expr`` behind a literal called ``name`` (numbered when the name repeats)."""
-        lit = self.m.NewBoolVar(name)
-        self.m.Add(expr).OnlyEnforceIf(lit)
-        key = name
-        i = 2
-        while key in self.lits:
-            key = f"{name} ({i})"
-            i += 1
-        self.lits[key] = lit
 
     def at_least(self, a: ActorSpec, what: str, var: Any, value: float) -> None:
         """Require ``var >= value`` (``value`` in metres, seconds or m/s), named ``a: what``."""
@@ -94,4 +73,4 @@ class PlacementModel:
         return (a.size[0] + EGO_SIZE[0]) / 2
 
 
-__all__ = ["DM", "PlacementModel", "cp_model"]
+__all__ = ["DM", "PlacementModel"]
