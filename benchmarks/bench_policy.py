@@ -2,7 +2,7 @@
 throughput, for the built-in policies on the hand-written driving chains.
 
 Test throughput is measured twice: per episode (program compiled, oracle included) and as
-``regen test`` runs it, :func:`regen.driving.testing.cases.run_tests` over a run folder holding
+``regen test`` runs it, :func:`regen.harness.suite.run_tests` over a run folder holding
 the scenarios (tests per minute, with and without the GIF of each failure).
 
 Per scenario the Scenic program is compiled once (cached across policies and episodes, as
@@ -21,15 +21,19 @@ import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "driving"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "support"))
 from driving_chains import FEASIBLE  # noqa: E402  (the hand-written chains)
 
-from regen.driving.testing.cases import judge, run_tests  # noqa: E402
-from regen.driving.testing.failure_pictures import keep_failures  # noqa: E402
+from regen.driving.testing.harness import DrivingHarness  # noqa: E402
 from regen.driving.testing.loop import prepare, run_policy  # noqa: E402
 from regen.driving.testing.policies import BUILTIN, load_policy  # noqa: E402
+from regen.harness.oracle import judge  # noqa: E402
+from regen.harness.pictures import keep_failures  # noqa: E402
+from regen.harness.suite import run_tests  # noqa: E402
 from regen.pipeline import run_path  # noqa: E402
 from regen.runfolder import RunFolder, ScenarioFolder  # noqa: E402
+
+HARNESS = DrivingHarness()
 
 
 def main() -> None:
@@ -56,7 +60,7 @@ def main() -> None:
                 t1 = time.perf_counter()
                 episode = run_policy(prep, policy)
                 t2 = time.perf_counter()
-                judge(sc, episode, folder=key)
+                judge(HARNESS, sc, episode, folder=key)
                 t3 = time.perf_counter()
                 ep_times.append(t2 - t1)
                 test_times.append(t3 - t1)
@@ -87,7 +91,7 @@ def suite_throughput(run: Path) -> None:
         report = run_tests(run, name)
         plain = time.perf_counter() - t0
         t1 = time.perf_counter()
-        run_tests(run, name, on_episode=keep_failures(run / RunFolder.TESTS / name, policy=name))
+        run_tests(run, name, on_episode=keep_failures(run / RunFolder.TESTS / name, HARNESS, policy=name))
         drawn = time.perf_counter() - t1
         n, failed = len(report.ran), report.summary()["failed"]
         print(f"{name:15s} {n:5d} {failed:6d} {plain:9.2f} {60 * n / plain:9.0f} {drawn:13.2f} "

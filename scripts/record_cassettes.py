@@ -58,7 +58,7 @@ def record_generate(llm_spec: str) -> None:
         shutil.rmtree(run, ignore_errors=True)
 
 
-# Driving cause paths for model grounding (tests/driving/test_llm_ground.py replays them).
+# Driving cause paths for model grounding (tests/driving/grounding/test_model.py replays them).
 GROUND_PATHS = {
     "jaywalker": ("stop_abruptly", "the ego-vehicle stops abruptly while driving forward",
                   "a pedestrian jaywalks across the road in front of the ego-vehicle",

@@ -53,10 +53,11 @@ def tested_run(tmp_path_factory):
     sys.path.insert(0, str(DRIVING_TESTS))  # the tests folder is not a package
     from driving_chains import FEASIBLE
 
-    from regen.driving.testing.cases import run_tests
-    from regen.driving.testing.cases import write_report as write_tests
-    from regen.driving.testing.failure_pictures import keep_failures
+    from regen.driving.testing.harness import DrivingHarness
     from regen.harness.cli import default_out
+    from regen.harness.junit import write_report as write_tests
+    from regen.harness.pictures import keep_failures
+    from regen.harness.suite import run_tests
     from regen.pipeline import run_path
 
     with pytest.MonkeyPatch.context() as mp:
@@ -67,7 +68,7 @@ def tested_run(tmp_path_factory):
         reports = {}
         for policy in ("constant-speed", "idm", "aeb"):
             dest = default_out(run, policy)
-            reports[policy] = run_tests(run, policy, on_episode=keep_failures(dest, policy=policy))
+            reports[policy] = run_tests(run, policy, on_episode=keep_failures(dest, DrivingHarness(), policy=policy))
             write_tests(reports[policy], dest)
         report = write_report(run)
         yield run, report.read_text(encoding="utf-8"), reports

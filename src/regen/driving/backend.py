@@ -134,6 +134,12 @@ class DrivingBackend(DomainBackend):
 
         return render_scenario(scenario, trace, verdict, out_dir)
 
+    def policy_harness(self):
+        """A driving policy in place of the scripted ego (:mod:`regen.driving.testing.harness`)."""
+        from regen.driving.testing.harness import DrivingHarness
+
+        return DrivingHarness()
+
     def config(self, scenario: Scenario) -> dict:
         from regen.driving.export.config import paper_config
 

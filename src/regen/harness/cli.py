@@ -1,6 +1,7 @@
-"""``regen test RUN_DIR --policy SPEC``: a run's driving scenarios as behavior tests of a policy.
+"""``regen test RUN_DIR --policy SPEC``: a run's scenarios as behavior tests of a policy, in
+any domain whose backend has a policy harness.
 
-A thin layer over :func:`regen.driving.testing.cases.run_tests`. Mounted by :mod:`regen.cli`
+A thin layer over :func:`regen.harness.suite.run_tests`. Mounted by :mod:`regen.cli`
 (``app.command("test")(test_command)``). Exit code: 0 when every test passed (or was skipped),
 1 when any failed, 2 for a bad SPEC, folder or option.
 """
@@ -33,10 +34,12 @@ def default_out(run_dir: Path, policy: str) -> Path:
 
 def test_command(
     run_dir: Annotated[Path, typer.Argument(help="A run folder made by regen generate.", show_default=False)],
-    policy: Annotated[str, typer.Option(
-        "--policy", "-p", help="constant-speed, idm, aeb, module:callable or path/to/file.py:callable "
-                               "(called every step with an Observation; returns acceleration "
-                               "in m/s^2 and curvature in 1/m).")] = "idm",
+    policy: Annotated[str | None, typer.Option(
+        "--policy", "-p", help="A built-in policy of the run's domain (driving: constant-speed, idm, aeb; "
+                               "manipulation: scripted, random, sac), module:callable or "
+                               "path/to/file.py[:callable], called every step with the domain's "
+                               "observation (default: the domain's first built-in).",
+        show_default=False)] = None,
     variants: Annotated[int | None, typer.Option(
         min=1, help="Parameter variants per scenario, sampled (seeded) from its solved feasible set; "
                     "variant 0 is the scenario as grounded (default 1). With --adversarial: the "
@@ -45,18 +48,22 @@ def test_command(
     out: Annotated[Path | None, typer.Option(
         "--out", "-o", help="Folder for tests.json and junit.xml (default: RUN_DIR/tests/<policy>).")] = None,
     oracle: Annotated[str, typer.Option(
-        help="fsm: the ego's FSM states in order and no collision; safety: no collision only.")] = "fsm",
-    step_timeout: Annotated[float, typer.Option(
-        "--step-timeout", min=0.001, help="Wall seconds a policy may take per step.")] = 1.0,
+        help="fsm: the FSM's expected states in order, no collision and no incident; safety: no "
+             "collision and no incident only.")] = "fsm",
+    step_timeout: Annotated[float | None, typer.Option(
+        "--step-timeout", min=0.001, help="Wall seconds a policy may take per step (default: the "
+                                          "domain's, 1 s).", show_default=False)] = None,
     adversarial: Annotated[bool, typer.Option(
         "--adversarial", help="Search the feasible parameters for variants that make the policy fail "
-                              "while the scripted template ego verifies and collides with nothing "
+                              "while the scripted robot verifies and collides with nothing "
                               "in the same variant; report them with their parameters.")] = False,
 ) -> None:
-    """Run a driving policy in place of the scripted ego in every scenario of a run."""
-    from regen.driving.testing.adversarial import DEFAULT_BUDGET, summary_lines
-    from regen.driving.testing.cases import case_line, run_tests, write_report
-    from regen.driving.testing.failure_pictures import keep_failures
+    """Run a policy in place of the scripted robot in every verified scenario of a run."""
+    from regen.harness.adversarial import DEFAULT_BUDGET, summary_lines
+    from regen.harness.cases import case_line
+    from regen.harness.junit import write_report
+    from regen.harness.pictures import keep_failures
+    from regen.harness.suite import open_suite, run_tests
 
     console = Console(highlight=False, soft_wrap=True)
 
@@ -65,17 +72,20 @@ def test_command(
         tag = line[:4]
         console.print(f"[{_STYLE[tag]}]{tag}[/]{escape(clean(line[4:]))}")
 
-    dest = out or default_out(run_dir, policy)
     try:
+        _, _, harness = open_suite(run_dir)
+        policy = policy or next(iter(harness.builtin), "")
+        dest = out or default_out(run_dir, policy)
         n = variants or (DEFAULT_BUDGET if adversarial else 1)
         report = run_tests(run_dir, policy, variants=n, seed=seed, step_timeout=step_timeout,
-                           oracle=oracle, adversarial=adversarial, on_case=show, on_episode=keep_failures(dest, policy=policy))
+                           oracle=oracle, adversarial=adversarial, on_case=show, harness=harness,
+                           on_episode=keep_failures(dest, harness, policy=policy))
         files = write_report(report, dest)
     except RegenError as exc:
         Console(stderr=True, soft_wrap=True).print(f"[red]error:[/red] {escape(clean(str(exc)))}")
         raise typer.Exit(code=exc.exit_code) from exc
     s = report.summary()
-    for line in summary_lines(report):
+    for line in summary_lines(report, harness.parameter_units):
         console.print(escape(clean(line)))
     console.print(f"{s['passed']}/{s['tests']} passed, {s['skipped']} skipped; {report.collision_line()}")
     console.print(f"wrote {escape(str(files['tests']))} and {escape(str(files['junit']))}")

@@ -103,7 +103,13 @@ class PolicyHarness(ABC):
 
     @abstractmethod
     def incidents(self, scenario: Scenario, trace: Trace) -> list[Incident]:
-        """Failures besides the FSM, in time order."""
+        """Failures of the robot under test besides the FSM, in time order (a collision names
+        the robot among its actors)."""
+
+    def excused(self, scenario: Scenario, template_trace: Trace) -> set[str]:
+        """Kinds of incident a policy is not failed for because the scripted robot's own run of
+        the same variant has them too (default: the kinds of its incidents)."""
+        return {i.kind for i in self.incidents(scenario, template_trace)}
 
     def metrics(self, scenario: Scenario, trace: Trace) -> dict[str, float | None]:
         """Figures each test case records (e.g. ``min_ttc`` [s], ``min_distance`` [m])."""

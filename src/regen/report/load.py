@@ -12,13 +12,13 @@ from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
-from urllib.parse import quote
 
 from regen.contract import ANIMATION, KEYFRAMES, ReportHints
 from regen.core.behavior import Behavior
 from regen.core.graph import CausePath, ScenarioGraph
 from regen.core.scenario import Scenario
 from regen.core.verdict import Verdict
+from regen.report.links import href
 from regen.runfolder import Loaded, RunFolder, ScenarioFolder, read_json, read_model, read_text
 
 if TYPE_CHECKING:
@@ -29,11 +29,6 @@ log = logging.getLogger(__name__)
 # Scenario files the page links to when they exist, in the order shown (then the domain's exports).
 LINKED_FILES: tuple[str, ...] = (ScenarioFolder.SCENARIO, ScenarioFolder.VERDICT, ScenarioFolder.TRACE,
                                  ScenarioFolder.PATH, ScenarioFolder.TIMINGS, ScenarioFolder.ERROR)
-
-
-def href(*parts: str) -> str:
-    """A relative URL to a file in the run folder (each part percent-encoded)."""
-    return "/".join(quote(p) for p in parts)
 
 
 @dataclass

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 from typing import Any
 
-from regen.report.load import href
+from regen.report.links import href
 from regen.runfolder import RunFolder, read_tests
 
 __all__ = ["BehaviorTests", "CaseRow", "PolicyTests", "RateRow", "load_tests"]
@@ -29,7 +29,7 @@ class CaseRow:
     scenario: str  # scenario folder name
     variant: int
     status: str  # passed, failed, skipped, unknown
-    cause: str | None = None  # why it failed ('collision', 'ego_state_not_reached', ...)
+    cause: str | None = None  # why it failed ('collision', 'state_not_reached', ...)
     message: str = ""
     collision: bool = False
     collision_with: str | None = None

@@ -14,14 +14,18 @@ from driving_chains import FEASIBLE, verified_run  # noqa: E402
 
 pytest.importorskip("scenic")
 
-from regen.driving.testing.cases import judge, junit_xml, run_tests, write_report  # noqa: E402
+from regen.driving.testing.harness import DrivingHarness  # noqa: E402
 from regen.driving.testing.loop import prepare, run_policy  # noqa: E402
 from regen.driving.testing.policies import Action, constant_speed, load_policy  # noqa: E402
 from regen.driving.verify.collisions import analyze  # noqa: E402
+from regen.harness.junit import junit_xml, write_report  # noqa: E402
+from regen.harness.oracle import judge  # noqa: E402
+from regen.harness.suite import run_tests  # noqa: E402
 from regen.runfolder import RunFolder  # noqa: E402
 
 pytestmark = pytest.mark.slow
 
+HARNESS = DrivingHarness()
 CHILD = "01-child-crosses"  # stop_abruptly: a child runs across the road in front of the ego
 
 
@@ -38,7 +42,7 @@ def prepared(run_dir):
 
 def _case(prepared, policy, **kw):
     episode = run_policy(prepared, policy, **kw)
-    return episode, judge(prepared.scenario, episode, folder=CHILD)
+    return episode, judge(HARNESS, prepared.scenario, episode, folder=CHILD)
 
 
 def test_constant_speed_runs_over_the_crossing_child(prepared):
@@ -58,16 +62,18 @@ def test_idm_yields_to_the_child_but_does_not_stop(prepared):
     # gently (the template's braking(ego, min_decel=4.0) would fail it) and that counts as
     # braking; but the child is across before IDM gets there, so it never stops: the FSM oracle
     # fails it at 'stopped', the safety oracle passes it
-    assert case.ego_stages[1].reached_at is not None
-    assert case.cause == "ego_state_not_reached" and "'stopped'" in case.message and min(speed) > 0.3
-    safe = judge(prepared.scenario, episode, folder=CHILD, oracle="safety")
+    assert case.robot_stages[1].reached_at is not None
+    assert case.cause == "state_not_reached" and "'stopped'" in case.message and min(speed) > 0.3
+    safe = judge(HARNESS, prepared.scenario, episode, folder=CHILD, oracle="safety")
     assert safe.status == "passed" and "not required" in safe.message
 
 
 def test_the_oracle_drops_the_template_manner_only(prepared):
-    from regen.driving.testing.cases import oracle_state
-
     scenario = prepared.scenario
+
+    def oracle_state(sc, name):
+        return HARNESS.oracle_state(sc, sc.fsm.state("ego", name))
+
     ego_states = {s.name: s for s in scenario.fsm.states if s.actor == "ego"}
     assert ego_states["braking"].all_of[0].params["min_decel"] > 1.0  # the template brakes hard
     braking = oracle_state(scenario, "braking")

@@ -57,7 +57,8 @@ def run_dir(tmp_path_factory):
 
 @pytest.mark.slow
 def test_three_variants_are_three_test_cases(run_dir, tmp_path):
-    from regen.driving.testing.cases import run_tests, write_report
+    from regen.harness.junit import write_report
+    from regen.harness.suite import run_tests
     from regen.runfolder import RunFolder
 
     report = run_tests(run_dir, "constant-speed", variants=3, seed=0)
@@ -74,7 +75,7 @@ def test_three_variants_are_three_test_cases(run_dir, tmp_path):
     assert [tc.get("name") for tc in cases] == [f"{CHILD}[variant {k}]" for k in range(3)]
     props = {p.get("name"): p.get("value") for p in cases[1].iter("property")}
     assert float(props["child1.s"]) == report.cases[1].parameters["child1"]["s"]
-    assert props["template_ego"] == "verified"
+    assert props["template"] == "verified"
     data = json.loads(files["tests"].read_text())
     assert [c["parameters"] for c in data["cases"]] == [c.parameters for c in report.cases]
 
@@ -82,7 +83,7 @@ def test_three_variants_are_three_test_cases(run_dir, tmp_path):
 @pytest.mark.slow
 def test_a_variant_whose_template_ego_fails_is_skipped(run_dir, monkeypatch):
     from regen.driving.testing import variants
-    from regen.driving.testing.cases import run_tests
+    from regen.harness.suite import run_tests
 
     monkeypatch.setattr(variants, "check_template", lambda scenario: variants.TemplateRun(
         verdict=None, trace=None, judged=scenario, error="SimulationError: boom"))
@@ -119,9 +120,9 @@ def test_adversarial_finds_a_corner_case_the_template_ego_avoids(run_dir, tmp_pa
 
 @pytest.mark.slow
 def test_adversarial_reports_none_for_a_policy_that_always_yields(run_dir, tmp_path):
-    from regen.driving.testing.adversarial import failing, summary_lines
-    from regen.driving.testing.cases import run_tests
     from regen.driving.testing.policies import load_policy
+    from regen.harness.adversarial import failing, summary_lines
+    from regen.harness.suite import run_tests
 
     f = tmp_path / "brake_early.py"
     f.write_text(textwrap.dedent("""

@@ -15,8 +15,8 @@ The episode is truncated at the scenario's duration.
 ``info`` every step: ``scenario`` (folder name), ``t`` [s], ``progress`` [m] along the route,
 ``collision`` (bool), ``collision_with``, ``min_ttc`` [s] so far (inf: nothing approached),
 ``infractions`` so far; at the episode's end also ``verdict``: the behavior test's
-:class:`~regen.driving.testing.cases.TestCase` of the episode as a dict (``status``,
-``cause``, ``message``, ``ego_stages`` with the time each FSM ego state was reached).
+:class:`~regen.harness.cases.CaseResult` of the episode as a dict (``status``,
+``cause``, ``message``, ``robot_stages`` with the time each FSM ego state was reached).
 Per-step safety values are estimated from the observations; the verdict comes from the
 recorded trace (:func:`regen.driving.verify.collisions.analyze`), as ``regen test`` judges.
 """
@@ -287,7 +287,8 @@ class DrivingEnv(gym.Env):
     def _finish(self, episode: Episode) -> dict:
         """End the simulation; the behavior test's verdict of the episode."""
         from regen.core.trace import Trace
-        from regen.driving.testing.cases import judge
+        from regen.driving.testing.harness import DrivingHarness
+        from regen.harness.oracle import judge
         from regen.runfolder import read_model
 
         self._slot["episode"] = None
@@ -300,7 +301,7 @@ class DrivingEnv(gym.Env):
         entry = self._entry
         if entry.template_trace is None:
             entry.template_trace = read_model(entry.folder / entry.folder.TRACE, Trace).value
-        case = judge(entry.scenario, run, folder=entry.name, oracle=self.oracle,
+        case = judge(DrivingHarness(), entry.scenario, run, folder=entry.name, oracle=self.oracle,
                      template_trace=entry.template_trace)
         out = {"verdict": case.model_dump(mode="json")}
         if episode.error is not None:

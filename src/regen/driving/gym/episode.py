@@ -35,7 +35,7 @@ class EpisodeAborted(Exception):
 class Episode:
     """A run_policy in a worker thread: ``start()`` then ``step(action)`` until either returns None
     (the simulation ended by itself: :attr:`run` or :attr:`error` is set); ``stop()`` ends it
-    early and returns the PolicyRun. Always call ``stop()`` (it is idempotent)."""
+    early and returns the Episode. Always call ``stop()`` (it is idempotent)."""
 
     def __init__(self, prepare: Callable[[], object], *, answer_timeout: float = ANSWER_TIMEOUT):
         self._prepare = prepare  # () -> regen.driving.testing.loop.Prepared, run under the lock
@@ -46,7 +46,7 @@ class Episode:
         self._holds_lock = False
         self._waiting = False  # the worker waits for an action
         self.prepared = None
-        self.run = None  # regen.driving.testing.loop.PolicyRun once the worker returned
+        self.run = None  # regen.harness.contract.Episode once the worker returned
         self.error: BaseException | None = None  # what the worker raised instead
 
     @property
@@ -78,7 +78,7 @@ class Episode:
 
     def stop(self):
         """End the simulation (if it still runs), wait for the worker, release the process lock;
-        the PolicyRun (None if the simulation failed or never started)."""
+        the Episode (None if the simulation failed or never started)."""
         try:
             if self._waiting:
                 self._waiting = False

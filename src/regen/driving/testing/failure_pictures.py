@@ -4,15 +4,13 @@ The scenario's own GIF (:mod:`regen.driving.render.scenario`) shows the scripted
 verified; a failed test needs the episode of the policy under test. It is drawn with the same
 map, actors and caption, except that the caption tells the test's verdict and the ego's
 expected states as the policy reached them, and from the step of a collision on a red ring marks
-where it happened. :func:`keep_failures` makes the ``on_episode`` callback of
-:func:`regen.driving.testing.cases.run_tests` that writes, for each failed test, the episode's
-``trace.json`` and ``failure.gif`` into ``<out>/<scenario>-v<variant>/``.
+where it happened. The shared :func:`regen.harness.pictures.keep_failures` asks for it through
+the driving harness (:meth:`regen.driving.testing.harness.DrivingHarness.failure_picture`).
 """
 
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -20,43 +18,35 @@ import numpy as np
 from PIL import Image
 
 from regen import media
-from regen.core.io import write_json
 from regen.core.scenario import Scenario
 from regen.core.trace import Trace
 from regen.driving.render.actors import Actor, Canvas, text_font
 from regen.driving.render.frames import STAGE_FAILED, Story, frame, palette
 from regen.driving.render.roads import MAP_H, View
 from regen.driving.render.scenario import RenderOptions, scene
+from regen.harness.pictures import FAILURE_GIF, case_folder
 
 if TYPE_CHECKING:
-    from regen.driving.testing.cases import TestCase
-    from regen.driving.testing.loop import PolicyRun, Prepared
+    from regen.harness.cases import CaseResult
 
 log = logging.getLogger(__name__)
 
-__all__ = ["FAILURE_GIF", "TRACE_FILE", "case_folder", "keep_failures", "render_failure"]
+__all__ = ["render_failure"]
 
-FAILURE_GIF = "failure.gif"
-TRACE_FILE = "trace.json"
 MARK_RADIUS = 2.5  # [m] of the ring around a collision
 MARK_MIN_PX = 12  # [px] the ring stays visible when zoomed out
 
 
-def case_folder(case: TestCase) -> str:
-    """Folder name of one test's files beside tests.json: ``<scenario>-v<variant>``."""
-    return f"{case.scenario}-v{case.variant}"
-
-
-def story_of_case(scenario: Scenario, trace: Trace, case: TestCase, policy: str) -> Story:
+def story_of_case(scenario: Scenario, trace: Trace, case: CaseResult, policy: str) -> Story:
     """The caption's story: the test's verdict and the ego's expected stages."""
     stages = [(k, s.reached_at, ", ".join(f"ego: {c}" for c in s.conditions))
-              for k, s in enumerate(case.ego_stages, start=1)]
-    unmet = next((k for k, s in enumerate(case.ego_stages, start=1) if s.reached_at is None), None)
+              for k, s in enumerate(case.robot_stages, start=1)]
+    unmet = next((k for k, s in enumerate(case.robot_stages, start=1) if s.reached_at is None), None)
     if case.collision:
         status = f"{policy}: collision with {case.collision_with}"
     else:
         status = f"{policy}: {(case.cause or case.status).replace('_', ' ')}"
-    failed_stage = unmet if case.cause == "ego_state_not_reached" else None
+    failed_stage = unmet if case.cause == "state_not_reached" else None
     return Story(scenario.id, str(trace.meta.get("map", scenario.world.get("map", ""))), stages,
                  status, failed_stage, float(trace.times[-1]))
 
@@ -96,7 +86,7 @@ def _mark_collision(img: Image.Image, view: View, actors: list[Actor], i: int, h
     return img
 
 
-def render_failure(scenario: Scenario, trace: Trace, case: TestCase, out_dir: Path, *,
+def render_failure(scenario: Scenario, trace: Trace, case: CaseResult, out_dir: Path, *,
                    policy: str = "policy", options: RenderOptions | None = None) -> Path:
     """Draw a failed test's episode as ``out_dir/failure.gif`` (640x480 px, about
     ``options.fps`` frames per simulated second, played in simulated real time); the frame of
@@ -121,30 +111,3 @@ def render_failure(scenario: Scenario, trace: Trace, case: TestCase, out_dir: Pa
                           media.frame_ms(times, steps, options.animation), palette=palette(bg))
     log.info("rendered the failed test %s: %d frames", case_folder(case), len(steps))
     return out
-
-
-def keep_failures(out_dir: str | Path, *, policy: str = "policy",
-                  pictures: bool = True) -> Callable[[TestCase, PolicyRun, Prepared], None]:
-    """An ``on_episode`` callback for :func:`~regen.driving.testing.cases.run_tests`: for each
-    failed test with an episode, write ``trace.json`` and (with ``pictures``) ``failure.gif``
-    into ``out_dir/<scenario>-v<variant>/`` and set the case's ``gif`` to its path relative to
-    ``out_dir`` (where tests.json goes). A picture that cannot be drawn is logged, never a
-    failed test."""
-    out = Path(out_dir)
-
-    def on_episode(case: TestCase, episode: PolicyRun, prepared: Prepared) -> None:
-        if case.status != "failed" or episode.trace is None or episode.trace.steps == 0:
-            return
-        folder = out / case_folder(case)
-        folder.mkdir(parents=True, exist_ok=True)
-        write_json(folder / TRACE_FILE, episode.trace)
-        if not pictures:
-            return
-        try:
-            gif = render_failure(prepared.scenario, episode.trace, case, folder, policy=policy)
-        except Exception as exc:  # noqa: BLE001 - a missing picture must not fail or stop the tests
-            log.warning("no GIF of the failed test %s: %s: %s", case_folder(case), type(exc).__name__, exc)
-            return
-        case.gif = gif.relative_to(out).as_posix()
-
-    return on_episode

@@ -21,12 +21,11 @@ import math
 import random
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from regen.core.scenario import Scenario
-from regen.core.trace import Trace
 from regen.driving.simulation.record import BRAKE_LIGHT_DECEL
 from regen.driving.simulation.run import snapshot
 from regen.driving.testing.policies import (
@@ -42,23 +41,12 @@ from regen.driving.world.actors import actor_category
 from regen.driving.world.plan import ActorPlan
 from regen.driving.world.triggers import warped_time
 from regen.errors import SimulationError
+from regen.harness.contract import Episode
 from regen.harness.timeout import PolicyFailure
 from regen.harness.timeout import call_with_timeout as _call_with_timeout
 
 STEP_TIMEOUT = 1.0  # default wall time a policy may take per step [s]
 VISIBLE = ("light_state", "siren", "brake_lights", "hazard_lights", "door")
-
-
-@dataclass
-class PolicyRun:
-    """One episode of a policy on a scenario."""
-
-    trace: Trace | None  # up to the step where it ended; None if nothing ran
-    failure: str | None = None  # why the policy failed ('policy raised ...', 'timeout ...', ...)
-    failure_kind: str | None = None  # 'exception', 'invalid_action', 'timeout'
-    failure_time: float | None = None  # [s]
-    steps: int = 0  # physics steps simulated
-    timings: dict[str, float] = field(default_factory=dict)  # 'compile', 'simulate', 'policy' [s]
 
 
 @dataclass
@@ -236,7 +224,7 @@ def _simulator_class():
 
 
 def run_policy(scenario: Scenario | Prepared, policy: Callable, *,
-               step_timeout: float | None = STEP_TIMEOUT, steps: int | None = None) -> PolicyRun:
+               step_timeout: float | None = STEP_TIMEOUT, steps: int | None = None) -> Episode:
     """Simulate ``scenario`` with its ego driven by ``policy`` (see :mod:`regen.driving.testing.policies`).
 
     ``step_timeout`` [s] per policy call (None: no limit, no thread); ``steps`` overrides the
@@ -274,16 +262,16 @@ def run_policy(scenario: Scenario | Prepared, policy: Callable, *,
     t1 = time.perf_counter()
     timings = {"compile": prep.compile_time, "simulate": t1 - t0, "policy": driver.policy_time}
     if not driver.log:
-        return PolicyRun(trace=None, failure=failure.reason if failure else "nothing was simulated",
+        return Episode(trace=None, failure=failure.reason if failure else "nothing was simulated",
                          failure_kind=failure.kind if failure else "exception", failure_time=0.0,
                          timings=timings)
     run = raw_run(driver.log, driver.names, prep.dt, {})
     trace = build_trace(run, prep.plans, geometry(prep.map_name), map_path=prep.map_path,
                         seed=prep.seed, meta={"scenario": prep.scenario.id, "ego": "policy"})
-    return PolicyRun(trace=trace, failure=failure.reason if failure else None,
+    return Episode(trace=trace, failure=failure.reason if failure else None,
                      failure_kind=failure.kind if failure else None,
                      failure_time=run.times[-1] if failure else None,
                      steps=len(driver.log) - 1, timings=timings)
 
 
-__all__ = ["STEP_TIMEOUT", "PolicyFailure", "PolicyRun", "Prepared", "prepare", "run_policy"]
+__all__ = ["STEP_TIMEOUT", "PolicyFailure", "Episode", "Prepared", "prepare", "run_policy"]

@@ -27,7 +27,7 @@ from typing import Any
 
 from regen.core.scenario import Scenario
 from regen.core.trace import Trace
-from regen.core.verdict import Verdict
+from regen.harness.contract import TemplateRun
 
 log = logging.getLogger(__name__)
 
@@ -191,22 +191,6 @@ def feasible_with(scenario: Scenario, params: dict[str, dict[str, float]]) -> bo
     for key, value in _as_ints(params, keys).items():
         M.m.Add(keys[key] == value)
     return _solve(M, 0)[0]
-
-
-@dataclass
-class TemplateRun:
-    """The scripted template ego in one variant: the backend's simulate and verify stages."""
-
-    verdict: Verdict | None  # None: the simulation failed (``error`` says why)
-    trace: Trace | None
-    judged: Scenario  # the scenario whose FSM the verdict is about (relaxed stages included)
-    collisions: list[str] = field(default_factory=list)  # the ego's, described
-    error: str | None = None
-
-    @property
-    def ok(self) -> bool:
-        """It verified and the ego collided with nothing."""
-        return self.verdict is not None and self.verdict.feasible and not self.collisions
 
 
 def ego_collisions(trace: Trace) -> list[str]:

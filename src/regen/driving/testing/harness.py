@@ -1,0 +1,95 @@
+"""The driving domain's policy harness: a driving policy in place of the scripted ego.
+
+The policy sees an :class:`~regen.driving.testing.policies.Observation` at the scenario's step
+(10 Hz) and returns an :class:`~regen.driving.testing.policies.Action` (acceleration [m/s^2],
+curvature [1/m]); the other actors' cause actions start on triggers relative to the ego
+(:mod:`regen.driving.world.triggers`), so the cause meets whatever ego drives. Incidents are
+the ego's collisions and infractions (running a red light, leaving the road) from
+:mod:`regen.driving.verify.collisions`; the oracle asks for the ego's FSM states with the
+template's manner dropped (:data:`MANNER`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from regen.core.scenario import AbstractState, Scenario
+from regen.core.trace import Trace
+from regen.driving.testing import loop, policies, variants
+from regen.driving.verify.collisions import SafetyReport, analyze
+from regen.harness.contract import Episode, Incident, Policy, PolicyHarness, TemplateRun
+
+EGO = "ego"
+
+# How hard the template ego brakes or accelerates is its manner, not the behavior under test: a
+# policy that brakes earlier and more gently still stops for the cause. The oracle replaces these
+# thresholds [m/s^2] with ones that only ask for the motion itself.
+MANNER = {"braking": {"min_decel": 0.5}, "accelerating": {"min_accel": 0.3}}
+
+
+class DrivingHarness(PolicyHarness):
+    robot = "ego"
+    builtin = {
+        "idm": "Intelligent Driver Model behind the nearest actor in the ego's path; stops for red "
+               "lights and closing sirens",
+        "constant-speed": "holds the route's cruise speed and ignores everyone",
+        "aeb": "cruises, brakes fully when the time to collision drops under 1.5 s",
+    }
+    step_timeout = loop.STEP_TIMEOUT
+    parameter_units = {"s": "m", "v": "m/s", "t": "s", "d0": "m"}
+
+    def __init__(self) -> None:
+        self._last: tuple[int, SafetyReport] | None = None  # judge asks twice of one trace
+
+    def _analysis(self, trace: Trace) -> SafetyReport:
+        if self._last is None or self._last[0] != id(trace):
+            self._last = (id(trace), analyze(trace, ego=EGO))
+        return self._last[1]
+
+    def load_policy(self, spec: str) -> Policy:
+        return policies.load_policy(spec)
+
+    def prepare(self, scenario: Scenario) -> loop.Prepared:
+        return loop.prepare(scenario)
+
+    def run_policy(self, prepared: Any, policy: Policy, *, step_timeout: float) -> Episode:
+        return loop.run_policy(prepared, policy, step_timeout=step_timeout)
+
+    def incidents(self, scenario: Scenario, trace: Trace) -> list[Incident]:
+        return [Incident(kind=e.kind, t=e.t, step=e.step, actors=tuple(e.actors), message=e.describe(),
+                         collision=e.kind == "collision")
+                for e in self._analysis(trace).events if EGO in e.actors]
+
+    def excused(self, scenario: Scenario, template_trace: Trace) -> set[str]:
+        """Every kind of event in the template ego's run, whoever committed it (a red-light
+        runner's scenario excuses the ego's red light as the template's run has one)."""
+        return {e.kind for e in self._analysis(template_trace).events}
+
+    def metrics(self, scenario: Scenario, trace: Trace) -> dict[str, float | None]:
+        """``min_ttc`` [s] and ``min_distance`` [m] of the ego (inf: never approached)."""
+        rep = self._analysis(trace)
+        return {"min_ttc": rep.min_ttc(EGO), "min_distance": rep.min_distance(EGO)}
+
+    def oracle_state(self, scenario: Scenario, state: AbstractState) -> AbstractState:
+        calls = [c.model_copy(update={"params": {**c.params, **MANNER[c.name]}}) if c.name in MANNER else c
+                 for c in state.all_of]
+        return state.model_copy(update={"all_of": calls})
+
+    def sample_variants(self, scenario: Scenario, n: int, seed: int, *, extremes: bool = False
+                        ) -> list[Scenario]:
+        return variants.sample_variants(scenario, n, seed, extremes=extremes)
+
+    def check_template(self, scenario: Scenario) -> TemplateRun:
+        return variants.check_template(scenario)
+
+    def failure_picture(self, scenario: Scenario, episode: Episode, prepared: Any, case: Any,
+                        policy: str, out: Path) -> Path | None:
+        from regen.driving.testing.failure_pictures import render_failure
+
+        if episode.trace is None:
+            return None
+        return render_failure(scenario, episode.trace, case, Path(out).parent, policy=policy)
+
+
+__all__ = ["EGO", "MANNER", "DrivingHarness"]

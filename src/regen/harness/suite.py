@@ -1,0 +1,173 @@
+"""A run folder as a test suite: every verified scenario of the run (and its variants) run with
+the user's policy in place of the scripted robot, through the domain's policy harness.
+
+Scenarios that did not verify with the scripted robot test nothing and are skipped. With
+``variants`` > 1 each verified scenario is tested in several points of its solved parameters'
+feasible set: variant 0 as grounded, each other one only when the scripted robot verifies in it
+too (one scripted simulation per variant; otherwise the case is skipped with the reason).
+``adversarial`` searches those points for the policy's failures (:mod:`regen.harness.adversarial`).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from regen.core.scenario import Scenario
+from regen.core.trace import Trace
+from regen.core.verdict import Verdict
+from regen.errors import ConfigError, RegenError
+from regen.harness.cases import CaseResult, SuiteReport, TemplateCheck
+from regen.harness.contract import PolicyHarness, TemplateRun
+from regen.harness.oracle import ORACLES, judge
+
+log = logging.getLogger(__name__)
+
+
+def harness_for(domain: str) -> PolicyHarness:
+    """The policy harness of a registered domain; ConfigError when the domain has none."""
+    from regen import domains
+
+    harness = domains.make(domain).policy_harness()
+    if harness is None:
+        raise ConfigError(f"the {domain} domain has no policy harness: regen test cannot run a policy "
+                          "in its scenarios")
+    return harness
+
+
+def run_domain(rf: Any) -> str:
+    """The domain of a run folder: its manifest's behavior, else its first readable scenario's."""
+    raw = rf.read_manifest_raw()
+    domain = raw.value.get("behavior", {}).get("domain") if raw.ok else None
+    if isinstance(domain, str) and domain:
+        return domain
+    for name in rf.scenario_names():
+        scenario = rf.scenario(name).scenario()
+        if scenario is not None:
+            return scenario.domain
+    raise ConfigError(f"{rf.path} holds no readable scenario: run regen generate first")
+
+
+def open_suite(run_dir: str | Path) -> tuple[Any, str, PolicyHarness]:
+    """(run folder, its domain, the domain's policy harness); ConfigError saying what to do when
+    the folder holds no scenarios or the domain tests no policies."""
+    from regen.runfolder import RunFolder
+
+    rf = RunFolder(run_dir)
+    if not (rf.path / RunFolder.SCENARIOS).is_dir():
+        raise ConfigError(f"{rf.path} is not a run folder with scenarios (regen generate makes one)")
+    domain = run_domain(rf)
+    return rf, domain, harness_for(domain)
+
+
+def _template_check(run: TemplateRun) -> TemplateCheck:
+    if run.verdict is None:
+        return TemplateCheck(verified=False, status="simulation_failed",
+                             message=f"the scripted robot's simulation failed: {run.error}")
+    check = TemplateCheck(verified=run.verdict.feasible, status=run.verdict.status,
+                          collision=bool(run.collisions), message=run.verdict.reason)
+    if run.collisions:
+        check.message = f"{check.message}; the scripted robot collides: {'; '.join(run.collisions)}"
+    return check
+
+
+def _variant_cases(harness: PolicyHarness, name: str, scenario: Scenario, verdict: Verdict,
+                   stored: Trace | None, *, variants: int, seed: int, adversarial: bool,
+                   run_one: Callable[[str, Scenario, int, Trace | None, dict], CaseResult]):
+    """The cases of one verified scenario's variants (variant 0: as grounded, judged by its
+    folder's verdict and trace; the others by a fresh scripted run each)."""
+    try:
+        found = harness.sample_variants(scenario, variants, seed, extremes=adversarial)
+    except RegenError as exc:  # the scenario no longer builds a placement model: test it as grounded
+        log.warning("%s: no variants: %s", name, exc)
+        found = [scenario]
+    for k, variant in enumerate(found):
+        if k == 0:
+            hits = ([i.message for i in harness.incidents(scenario, stored) if i.collision]
+                    if stored is not None else [])
+            template = TemplateRun(verdict=verdict, trace=stored, judged=scenario, collisions=hits)
+        else:
+            template = harness.check_template(variant)
+        check = _template_check(template)
+        base = {"parameters": _numeric(variant.parameters), "adversarial": adversarial, "template": check}
+        if not check.verified or (adversarial and check.collision):
+            what = "does not verify" if not check.verified else "collides"
+            yield CaseResult(scenario=name, scenario_id=scenario.id, variant=k, status="skipped", **base,
+                             message=f"the scripted {harness.robot} {what} in this variant ({check.status}: "
+                                     f"{check.message}); it tests nothing")
+        else:
+            yield run_one(name, template.judged or variant, k, template.trace, base)
+
+
+def _numeric(parameters: dict) -> dict[str, dict[str, float]]:
+    """The variant's numeric parameters per actor (what tests.json records)."""
+    return {actor: {k: float(v) for k, v in p.items() if isinstance(v, (int, float)) and not isinstance(v, bool)}
+            for actor, p in parameters.items()}
+
+
+def run_tests(run_dir: str | Path, policy_spec: str, *, variants: int = 1, seed: int = 0,
+              step_timeout: float | None = None, oracle: str = "fsm", policy: Callable | None = None,
+              on_case: Callable[[CaseResult], None] | None = None,
+              on_episode: Callable[[CaseResult, object, object], None] | None = None,
+              adversarial: bool = False, harness: PolicyHarness | None = None) -> SuiteReport:
+    """Test ``policy_spec`` (or an already loaded ``policy``) on every scenario of a run.
+
+    ``variants``: parameter variants per scenario, seeded by ``seed``. ``adversarial``: the
+    variants are candidates of the corner-case search (their parameters pushed to the ends of
+    their feasible ranges), and a candidate counts only when the scripted robot also collides
+    with nothing in it. ``oracle``: 'fsm' or 'safety' (see :func:`regen.harness.oracle.judge`).
+    ``step_timeout`` [s] per policy call (default: the harness's); ``on_case`` is called as each
+    test finishes; ``on_episode(case, episode, prepared)`` before it for each episode run
+    (:func:`regen.harness.pictures.keep_failures`). ConfigError for a bad SPEC or folder, or a
+    domain without a policy harness; faults of single scenarios become failed tests.
+    """
+    from regen.runfolder import read_model
+
+    if oracle not in ORACLES:
+        raise ConfigError(f"unknown oracle {oracle!r}; choose one of: {', '.join(ORACLES)}")
+    if variants < 1:
+        raise ConfigError(f"--variants must be at least 1 (got {variants})")
+    rf, domain, found = open_suite(run_dir)
+    harness = harness or found
+    pol = policy if policy is not None else harness.load_policy(policy_spec)
+    timeout = harness.step_timeout if step_timeout is None else step_timeout
+    report = SuiteReport(run=str(rf.path), policy=policy_spec, domain=domain, robot=harness.robot,
+                         oracle=oracle, seed=seed, variants=variants, adversarial=adversarial)
+
+    def run_one(name: str, scenario: Scenario, k: int, template_trace: Trace | None, base: dict) -> CaseResult:
+        try:
+            prep = harness.prepare(scenario)
+            t0 = time.perf_counter()
+            episode = harness.run_policy(prep, pol, step_timeout=timeout)
+            case = judge(harness, scenario, episode, folder=name, variant=k, wall=time.perf_counter() - t0,
+                         oracle=oracle, template_trace=template_trace)
+            for key, value in base.items():
+                setattr(case, key, value)
+            if on_episode is not None:  # e.g. keep the failed episode's trace and picture
+                on_episode(case, episode, prep)
+        except RegenError as exc:
+            case = CaseResult(scenario=name, scenario_id=scenario.id, variant=k, status="failed", cause="error",
+                              message=f"the scenario could not be run: {exc}", **base)
+        return case
+
+    for name, folder, scenario, verdict in rf.scenarios_of(domain):
+        if verdict is None or not verdict.feasible:
+            why = "unfinished" if verdict is None else verdict.status
+            cases = [CaseResult(scenario=name, scenario_id=scenario.id, status="skipped", adversarial=adversarial,
+                                message=f"the scenario did not verify with the scripted {harness.robot} ({why}); "
+                                        "it tests nothing")]
+        else:
+            cases = _variant_cases(harness, name, scenario, verdict,
+                                   read_model(folder / folder.TRACE, Trace).value, variants=variants,
+                                   seed=seed, adversarial=adversarial, run_one=run_one)
+        for case in cases:
+            report.cases.append(case)
+            if on_case is not None:
+                on_case(case)
+    return report
+
+
+__all__ = ["harness_for", "open_suite", "run_domain", "run_tests"]
