@@ -17,6 +17,7 @@ from fake_expansion_model import ScriptedModel
 
 from regen import domains
 from regen.contract import ANIMATION, KEYFRAMES
+from regen.core.behavior import make_behavior
 from regen.llm import LLM
 from regen.llm.testing import FunctionProvider
 from regen.pipeline import generate
@@ -67,7 +68,7 @@ def test_domain_runs_the_main_job_end_to_end(name: str, tmp_path: Path) -> None:
     model = ScriptedModel(causes={text: [cause]}, entities={cause: [asset]}, values=values, choose=choose,
                           otherwise="this is not JSON")
     run = tmp_path / "run"
-    behavior = domains.make_behavior(text, name)
+    behavior = make_behavior(text, name)
     res = generate(behavior, run, settings=RunSettings(max_scenarios=1),
                    llm=LLM(FunctionProvider(model), cache=run / "llm-cache.sqlite"))
     assert res.manifest.status == "done" and len(res.outcomes) == 1

@@ -13,7 +13,7 @@ def test_core_imports_leave_heavy_packages_unimported() -> None:
     code = (
         "import sys, json\n"
         "import regen, regen.core, regen.assets, regen.llm, regen.verify, regen.domains, regen.cli\n"
-        "from regen.domains import database\n"
+        "from regen.assets.database import database_of as database\n"
         "database('driving'); database('manipulation')\n"
         "from regen.verify import list_predicates\n"
         "list_predicates()\n"

@@ -78,9 +78,9 @@ def _root(verbose: bool = typer.Option(False, "--verbose", "-v", help="Log detai
 def assets_cmd(domain: str = typer.Argument(..., help="A domain (driving, manipulation) or a database JSON file"),
                as_json: bool = typer.Option(False, "--json", help="Print the database as JSON.")) -> None:
     """Show what a simulator's asset database can simulate."""
-    from regen import domains
+    from regen.assets.database import database_of
 
-    db = domains.database(domain)
+    db = database_of(domain)
     if as_json:
         console.print_json(db.model_dump_json())
         return
@@ -201,7 +201,7 @@ def expand_cmd(
     from rich.live import Live
     from rich.spinner import Spinner
 
-    from regen.domains import make_behavior
+    from regen.core.behavior import make_behavior
     from regen.expand import Limits
     from regen.expand.run import run_expand
 
@@ -275,7 +275,7 @@ def generate_cmd(
     """The main job: behavior -> causal graph -> scenarios -> simulation -> verdicts -> report."""
     from pathlib import Path
 
-    from regen.domains import make_behavior
+    from regen.core.behavior import make_behavior
     from regen.errors import ConfigError
     from regen.pipeline import generate
     from regen.progress import make_progress

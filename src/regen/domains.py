@@ -9,15 +9,12 @@ this module imports nothing of the contract or of any domain, so every layer may
 from __future__ import annotations
 
 import importlib
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 from regen.errors import ConfigError
 
 if TYPE_CHECKING:
-    from regen.assets.database import AssetDatabase
     from regen.contract import DomainBackend
-    from regen.core.behavior import Behavior
 
 
 _REGISTRY: dict[str, str] = {}  # name -> 'package.module:Class'
@@ -57,29 +54,6 @@ def backend_class(name: str) -> type[DomainBackend]:
 def make(name: str) -> DomainBackend:
     """A backend instance of domain ``name``."""
     return backend_class(name)()
-
-
-def database(name_or_file: str | Path) -> AssetDatabase:
-    """The asset database of a registered domain, or a user's database JSON file."""
-    from regen.assets.database import load_database
-
-    key = str(name_or_file)
-    if key in _REGISTRY:
-        return make(key).database()
-    if not Path(key).exists():
-        raise ConfigError(f"{key!r} is neither a domain ({', '.join(names())}) nor an existing "
-                          "file: give a domain or the path of an asset database .json file")
-    return load_database(key)  # a folder or a bad file: its own message says what to give
-
-
-def make_behavior(text: str, domain: str, **fields: object) -> Behavior:
-    """A behavior from user input, checked against its domain before any model call."""
-    from regen.core.behavior import make_behavior as _make
-
-    backend = make(domain)
-    behavior = _make(text, domain, **fields)
-    backend.check_behavior(behavior)
-    return behavior
 
 
 register("driving", "regen.driving.backend:DrivingBackend")

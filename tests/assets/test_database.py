@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 from regen.assets import load_database
-from regen.domains import database as domain_database
+from regen.assets.database import database_of as domain_database
 from regen.errors import AssetDatabaseError, ConfigError
 
 

@@ -21,6 +21,7 @@ from regen.core import (
     Trace,
     Verdict,
 )
+from regen.core.behavior import make_behavior
 from regen.core.graph import Decision, Node, node_id
 from regen.core.verdict import StageResult
 from regen.errors import GraphCycleError, GraphError
@@ -170,13 +171,12 @@ def test_empty_behavior_is_refused_with_advice(text: str) -> None:
 
 
 def test_unknown_domain_and_unknown_keys_are_refused() -> None:
-    from regen import domains
     from regen.errors import ConfigError
 
     with pytest.raises(ValidationError):
         Behavior(text="x", domain="")
     with pytest.raises(ConfigError, match="unknown domain 'flying'; choose one of: driving, manipulation"):
-        domains.make_behavior("x", "flying")
+        make_behavior("x", "flying")
     with pytest.raises(ValidationError):
         Behavior.model_validate({"text": "x", "domain": "driving", "txet": "typo"})
 

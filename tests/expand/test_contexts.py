@@ -13,6 +13,7 @@ from fake_expansion_model import ScriptedModel
 from typer.testing import CliRunner
 
 from regen import domains
+from regen.assets.database import database_of
 from regen.cli import app
 from regen.contract import ROBOT_ORDERS, Wording
 from regen.core.behavior import Behavior
@@ -150,7 +151,7 @@ def test_a_broken_pattern_is_reported_with_its_domain() -> None:
     ("driving", "trafic light", "traffic_light"),
 ])
 def test_close_names_match_an_asset(domain: str, name: str, asset: str) -> None:
-    db = domains.database(domain)
+    db = database_of(domain)
     assert db.resolve(name) is None
     m = db.match(name)
     assert m is not None and m.asset == asset and 0.75 <= m.similarity <= 1.0
@@ -161,12 +162,12 @@ def test_close_names_match_an_asset(domain: str, name: str, asset: str) -> None:
     ("manipulation", "radio"), ("manipulation", "watering can"), ("manipulation", "storage furniture"),
 ])
 def test_unrelated_names_match_nothing(domain: str, name: str) -> None:
-    db = domains.database(domain)
+    db = database_of(domain)
     assert db.resolve(name) is None and db.match(name) is None
 
 
 def test_descriptions_are_matched_too() -> None:
-    db = domains.database("manipulation")
+    db = database_of("manipulation")
     # today's descriptions do not call a cabinet furniture: no guess (not 'open storage box' either)
     assert db.match("storage furniture") is None
     assets = dict(db.assets)

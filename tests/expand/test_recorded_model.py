@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 from cassette_cases import EXPANSIONS
 
+from regen.assets.database import database_of as domain_database
 from regen.core.graph import ScenarioGraph
-from regen.domains import database as domain_database
 from regen.expand import Limits, expand
 from regen.llm import LLM
 from regen.llm.cache import CallCache

@@ -346,7 +346,7 @@ def load_packaged_database(package: str, resource: str) -> AssetDatabase:
 
 
 def load_database(path: str | Path) -> AssetDatabase:
-    """A user's asset database JSON file (a domain's own database: ``regen.domains.database``)."""
+    """A user's asset database JSON file (a domain's own database or a file: :func:`database_of`)."""
     path = Path(path)
     if path.is_dir():
         raise ConfigError(f"asset database {str(path)!r} is a folder: give the path of a "
@@ -369,3 +369,16 @@ def load_database(path: str | Path) -> AssetDatabase:
         raise ConfigError(f"asset database {str(path)!r} is not UTF-8 text (byte "
                           f"0x{data[exc.start]:02x} at offset {exc.start}): save it as UTF-8") from None
     return _parse(text, str(path))
+
+
+def database_of(name_or_file: str | Path) -> AssetDatabase:
+    """The asset database of a registered domain, or a user's database JSON file."""
+    from regen import domains
+
+    key = str(name_or_file)
+    if key in domains.names():
+        return domains.make(key).database()
+    if not Path(key).exists():
+        raise ConfigError(f"{key!r} is neither a domain ({', '.join(domains.names())}) nor an existing "
+                          "file: give a domain or the path of an asset database .json file")
+    return load_database(key)  # a folder or a bad file: its own message says what to give

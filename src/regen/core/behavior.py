@@ -39,14 +39,18 @@ class Behavior(Model):
 
 
 def make_behavior(text: str, domain: str, **fields: object) -> Behavior:
-    """Build a Behavior from user input, turning validation errors into a ConfigError (the
-    domain itself is checked by :func:`regen.domains.make_behavior`)."""
+    """A behavior from user input, checked against its domain (a registered one, whose backend
+    accepts it) before any model call; ConfigError saying what to give otherwise."""
     from pydantic import ValidationError
 
+    from regen import domains
     from regen.errors import ConfigError
 
+    backend = domains.make(domain)  # an unknown domain names the choices
     try:
-        return Behavior(text=text, domain=domain, **fields)  # type: ignore[arg-type]
+        behavior = Behavior(text=text, domain=domain, **fields)  # type: ignore[arg-type]
     except ValidationError as exc:
         msg = "; ".join(str(e["msg"]).removeprefix("Value error, ") for e in exc.errors())
         raise ConfigError(f"bad behavior: {msg}") from None
+    backend.check_behavior(behavior)
+    return behavior

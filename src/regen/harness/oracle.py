@@ -101,7 +101,7 @@ def judge(harness: PolicyHarness, scenario: Scenario, episode: Episode, *, folde
         case.message = f"policy failed at t={episode.failure_time:.1f} s: {episode.failure}"
     elif bad is not None:
         case.status, case.cause = "failed", bad.kind
-        case.message = f"infraction: {bad.message}"
+        case.message = f"{bad.kind.replace('_', ' ')}: {bad.message}"
     elif unmet is not None and oracle == "fsm":
         stages = harness.oracle_stages(scenario)
         after = ""
