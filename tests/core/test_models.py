@@ -193,3 +193,12 @@ def test_variants_split_multi_valued_properties() -> None:
     assert p.entities[0].properties["start_location"] == ["x", "y"]  # the original is untouched
     single = CausePath(behavior=_behavior(), events=["a", "b"])
     assert single.variants() == [single]
+
+
+def test_an_old_scenario_with_an_ego_kind_loads_with_one_word_for_the_robot():
+    from regen.core.scenario import Entity
+
+    old = Entity.model_validate({"name": "ego", "asset": "ego", "kind": "ego"})
+    assert old.kind == "robot"
+    with pytest.raises(ValueError):
+        Entity.model_validate({"name": "x", "asset": "x", "kind": "pilot"})

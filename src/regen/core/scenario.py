@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from regen.core.base import Model
 from regen.core.behavior import Behavior
@@ -86,12 +86,18 @@ class FSM(Model):
 class Entity(Model):
     """An actor or object of the scenario, with its properties and motion primitive."""
 
-    name: str  # unique in the scenario, e.g. 'ambulance1'; the ego is 'ego'
+    name: str  # unique in the scenario, e.g. 'ambulance1'
     asset: str  # asset database id, e.g. 'ambulance'
-    kind: Literal["agent", "object", "ego", "robot"] = "agent"
+    kind: Literal["agent", "object", "robot"] = "agent"  # 'robot': the one whose behavior is explained
     properties: dict[str, str] = Field(default_factory=dict)  # e.g. {'siren': 'on'}
     behavior: str | None = None  # motion primitive id, e.g. 'drive_forward'
     behavior_params: dict[str, Scalar] = Field(default_factory=dict)
+
+    @field_validator("kind", mode="before")
+    @classmethod
+    def _one_word_for_the_robot(cls, v: object) -> object:
+        # scenario.json files written before every domain called its robot 'robot'
+        return "robot" if v == "ego" else v
 
 
 class SolverReport(Model):
@@ -134,6 +140,10 @@ class Scenario(Model):
                         raise ValueError(f"predicate {p} in state {s.name!r} names unknown actor "
                                          f"{a!r}; known actors: {sorted(known)}")
         return self
+
+    def robot(self) -> Entity | None:
+        """The entity whose behavior the scenario explains (kind 'robot'), if any."""
+        return next((e for e in self.entities if e.kind == "robot"), None)
 
     def entity(self, name: str) -> Entity:
         for e in self.entities:

@@ -35,10 +35,9 @@ def default_out(run_dir: Path, policy: str) -> Path:
 def test_command(
     run_dir: Annotated[Path, typer.Argument(help="A run folder made by regen generate.", show_default=False)],
     policy: Annotated[str | None, typer.Option(
-        "--policy", "-p", help="A built-in policy of the run's domain (driving: constant-speed, idm, aeb; "
-                               "manipulation: scripted, random, sac), module:callable or "
-                               "path/to/file.py[:callable], called every step with the domain's "
-                               "observation (default: the domain's first built-in).",
+        "--policy", "-p", help="A built-in policy of the run's domain (an unknown name lists them), "
+                               "module:callable or path/to/file.py[:callable], called every step "
+                               "with the domain's observation (default: the domain's first built-in).",
         show_default=False)] = None,
     variants: Annotated[int | None, typer.Option(
         min=1, help="Parameter variants per scenario, sampled (seeded) from its solved feasible set; "

@@ -80,11 +80,11 @@ class PolicyHarness(ABC):
     parameter_units: ClassVar[Mapping[str, str]] = {}
 
     def robot_name(self, scenario: Scenario) -> str:
-        """The entity the policy drives: the scenario's ``ego`` or ``robot`` entity."""
-        for e in scenario.entities:
-            if e.kind in ("ego", "robot"):
-                return e.name
-        raise ValueError(f"scenario {scenario.id} has no robot entity")
+        """The entity the policy drives: the scenario's robot (:meth:`Scenario.robot`)."""
+        robot = scenario.robot()
+        if robot is None:
+            raise ValueError(f"scenario {scenario.id} has no robot entity")
+        return robot.name
 
     @abstractmethod
     def load_policy(self, spec: str) -> Policy:

@@ -62,7 +62,7 @@ class ScenarioView:
     @property
     def assets(self) -> list[str]:
         if self.scenario is not None:
-            return [e.asset for e in self.scenario.entities if e.kind != "ego"]
+            return [e.asset for e in self.scenario.entities if e.kind != "robot"]
         if self.path is not None:
             return [e.asset for e in self.path.entities]
         return []

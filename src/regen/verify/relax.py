@@ -52,7 +52,8 @@ def drop_never_held(scenario: Scenario, verdict: Verdict) -> tuple[FSM, str] | N
     k = verdict.first_unmet_stage
     if (k is None or verdict.status != "fsm_incomplete" or scenario.fsm_source == "rules"):
         return None
-    robots = {e.name for e in scenario.entities if e.kind in ("ego", "robot")} | {"ego", "robot"}
+    robot = scenario.robot()  # the robot's own states are never dropped
+    robots = {robot.name} if robot is not None else set()
     alone = verdict.stages[k - 1].satisfied_alone
     conds = fsm.stages[k - 1].conditions
     gone = [c for c in conds if c.actor not in robots and alone.get(f"{c.actor}: {c.state}") is None

@@ -185,7 +185,7 @@ def _standing(scenario: Scenario) -> set[str]:
 
     out = set()
     for e in scenario.entities:
-        spec = find(e.behavior) if e.kind != "ego" and e.behavior else None
+        spec = find(e.behavior) if e.kind != "robot" and e.behavior else None
         if spec is not None and not spec.xosc_trajectory:
             out.add(e.name)
     return out

@@ -339,7 +339,7 @@ def build_scenario(path: CausePath, roles: list[RoleChoice], *, narrative: str, 
         raise GroundingError("; ".join(problems))
     template = choose_map(template, roles)
     sol = solve(template, [_actor(r, db) for r in roles], seed=seed)
-    entities = [Entity(name="ego", asset="ego", kind="ego", behavior=template.id,
+    entities = [Entity(name="ego", asset="ego", kind="robot", behavior=template.id,
                        behavior_params={"text": path.behavior.text})]
     for r in roles:
         kind = db.assets[r.asset].kind
