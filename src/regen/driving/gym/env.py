@@ -38,20 +38,13 @@ from regen.driving.testing.policies import Observation
 from regen.driving.verify.collisions import LIGHT_REACH, MIN_CLOSING_SPEED, to_stop_line
 from regen.driving.world.geometry import corners, door_footprint, gap, overlap
 from regen.errors import ConfigError, SimulationError
+from regen.harness.catalog import Entry, Picker, verified
 
 PROGRESS_REWARD = 0.1  # reward per metre along the route [1/m]
 COLLISION_PENALTY = 10.0  # subtracted when the ego collides (the episode terminates)
 INFRACTION_PENALTY = 2.0  # subtracted when an infraction starts (red light, off road)
+DOMAIN = "driving"
 ORDERS = ("random", "cycle")
-
-
-@dataclasses.dataclass
-class _Entry:
-    name: str  # scenario folder name
-    folder: object  # regen.runfolder.ScenarioFolder
-    scenario: object  # regen.core.scenario.Scenario
-    prepared: object = None  # regen.driving.testing.loop.Prepared, on first use
-    template_trace: object = None  # the template ego's Trace, on first verdict
 
 
 class _Route:
@@ -148,25 +141,6 @@ def _stop_line(ego, light) -> tuple[float, float]:
     return float(lon), float(lat)
 
 
-def _entries(runs) -> tuple[list[_Entry], list[str]]:
-    from regen.runfolder import RunFolder
-
-    if isinstance(runs, (str, Path)):
-        runs = [runs]
-    out, skipped = [], []
-    for run in runs:
-        rf = RunFolder(run)
-        if not (rf.path / RunFolder.SCENARIOS).is_dir():
-            raise ConfigError(f"{rf.path} is not a run folder with scenarios (regen generate makes one)")
-        for name, folder, scenario, verdict in rf.scenarios_of("driving"):
-            if verdict is None or not verdict.feasible:
-                skipped.append(f"{rf.path.name}/{name}")
-                continue
-            label = name if len(runs) == 1 else f"{rf.path.name}/{name}"
-            out.append(_Entry(name=label, folder=folder, scenario=scenario))
-    return out, skipped
-
-
 class DrivingEnv(gym.Env):
     """Episodes are the verified driving scenarios of ``runs`` (run folder paths).
 
@@ -192,7 +166,8 @@ class DrivingEnv(gym.Env):
         if variants != 1:
             raise ConfigError("variants other than 1 are not implemented yet")
         self.render_mode = None
-        self.entries, self.skipped = _entries(runs)
+        self.entries, self.skipped = verified(runs, DOMAIN)
+        self._picker = Picker(self.entries, order)
         if not self.entries:
             where = ", ".join(str(r) for r in ([runs] if isinstance(runs, (str, Path)) else runs))
             raise ConfigError(f"no verified driving scenario in {where} ({len(self.skipped)} did not "
@@ -203,10 +178,9 @@ class DrivingEnv(gym.Env):
         self.infraction_penalty = infraction_penalty
         self.observation_space = ob.observation_space()
         self.action_space = ob.action_space(normalize_actions)
-        self._cursor = 0
         self._slot: dict[str, Episode | None] = {"episode": None}
         self._finalizer = weakref.finalize(self, _stop_slot, self._slot)  # no thread outlives the env
-        self._entry: _Entry | None = None
+        self._entry: Entry | None = None
 
     @property
     def scenario_names(self) -> list[str]:
@@ -220,26 +194,10 @@ class DrivingEnv(gym.Env):
 
     # --- the episode ---------------------------------------------------------------------------
 
-    def _pick(self, options: dict | None, seeded: bool) -> _Entry:
-        if options and options.get("scenario") is not None:
-            want = str(options["scenario"])
-            for e in self.entries:
-                if e.name == want:
-                    return e
-            raise ConfigError(f"no scenario {want!r}; choose one of: {', '.join(self.scenario_names)}")
-        n = len(self.entries)
-        if self.order == "random":
-            return self.entries[int(self.np_random.integers(n))]
-        if seeded:
-            self._cursor = int(self.np_random_seed) % n
-        entry = self.entries[self._cursor % n]
-        self._cursor = (self._cursor + 1) % n
-        return entry
-
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         _stop_slot(self._slot)
-        entry = self._pick(options, seed is not None)
+        entry = self._picker.pick(options, self.np_random, seed)
         # the episode must not reference self: the finalizer holds it, and would keep self alive
         episode = Episode(functools.partial(_prepared, entry))
         obs = episode.start()
@@ -322,7 +280,7 @@ class DrivingEnv(gym.Env):
         super().close()
 
 
-def _prepared(entry: _Entry):
+def _prepared(entry: Entry):
     if entry.prepared is None:
         from regen.driving.testing.loop import prepare
 

@@ -25,16 +25,11 @@ its path falls below 1.5 s). All three steer along the route (:func:`route_curva
 
 from __future__ import annotations
 
-import importlib
-import importlib.util
 import math
-import sys
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 
 from regen.driving.world.geometry import DOOR_WIDTH
-from regen.errors import ConfigError
 
 MAX_ACCEL = 5.6  # Newtonian full-throttle acceleration [m/s^2]
 MAX_BRAKE = 6.8  # Newtonian full-brake deceleration [m/s^2]
@@ -320,51 +315,13 @@ BUILTIN: dict[str, Callable[[], Policy]] = {
 }
 
 
-def _from_file(path: Path) -> object:
-    if not path.is_file():
-        raise ConfigError(f"policy file {path} does not exist")
-    mod_name = f"regen_user_policy_{abs(hash(str(path.resolve())))}"
-    spec = importlib.util.spec_from_file_location(mod_name, path)
-    if spec is None or spec.loader is None:
-        raise ConfigError(f"cannot import {path} as a Python module")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[mod_name] = module  # dataclasses and pickling look modules up by name
-    try:
-        spec.loader.exec_module(module)
-    except Exception as exc:
-        del sys.modules[mod_name]
-        raise ConfigError(f"importing policy file {path} failed: {type(exc).__name__}: {exc}") from exc
-    return module
-
-
 def load_policy(spec: str) -> Policy:
     """The policy a SPEC names: a built-in name ({builtins}), ``module:callable`` or
-    ``path/to/file.py:callable``. A built-in and a class are instantiated; ConfigError if the
+    ``path/to/file.py[:callable]`` (default callable: ``policy``). A built-in and a class are instantiated; ConfigError if the
     SPEC names nothing callable."""
-    spec = spec.strip()
-    if spec in BUILTIN:
-        return BUILTIN[spec]()
-    if ":" not in spec:
-        raise ConfigError(f"unknown policy {spec!r}: use a built-in name ({', '.join(BUILTIN)}), "
-                          "module:callable or path/to/file.py:callable")
-    where, _, attr = spec.rpartition(":")
-    if where.endswith(".py") or "/" in where or "\\" in where:
-        module = _from_file(Path(where).expanduser())
-    else:
-        try:
-            module = importlib.import_module(where)
-        except ImportError as exc:
-            raise ConfigError(f"cannot import policy module {where!r}: {exc}") from exc
-    obj = module
-    for part in attr.split("."):
-        obj = getattr(obj, part, None)
-        if obj is None:
-            raise ConfigError(f"{where} has no attribute {attr!r}")
-    if isinstance(obj, type):
-        obj = obj()
-    if not callable(obj):
-        raise ConfigError(f"{spec} is not callable")
-    return obj
+    from regen.harness.loading import load_callable
+
+    return load_callable(spec, BUILTIN)
 
 
 load_policy.__doc__ = (load_policy.__doc__ or "").format(builtins=", ".join(BUILTIN))

@@ -35,16 +35,15 @@ episode's end also ``incidents`` (the harness's, in words) from the recorded tra
 
 from __future__ import annotations
 
-import dataclasses
 import weakref
-from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
 from regen.errors import ConfigError
-from regen.manipulation.testing.loop import Prepared, Session, prepare
+from regen.harness.catalog import Entry, Picker, verified
+from regen.manipulation.testing.loop import Session, prepare
 from regen.manipulation.testing.types import MAX_STEP, POLICY_DT, Action, Observation
 
 SLOTS = 6  # context objects observed (grounding places at most 6)
@@ -52,31 +51,8 @@ OBS_SIZE = 95
 LIMIT = 100.0  # every observed value is clipped to +-LIMIT
 COLLISION_PENALTY = 10.0
 SUCCESS_BONUS = 5.0
+DOMAIN = "manipulation"
 ORDERS = ("random", "cycle")
-
-
-@dataclasses.dataclass
-class _Entry:
-    name: str
-    scenario: object  # regen.core.scenario.Scenario
-    prepared: Prepared | None = None
-
-
-def _entries(runs) -> tuple[list[_Entry], list[str]]:
-    from regen.runfolder import RunFolder
-
-    runs = [runs] if isinstance(runs, (str, Path)) else list(runs)
-    out, skipped = [], []
-    for run in runs:
-        rf = RunFolder(run)
-        if not (rf.path / RunFolder.SCENARIOS).is_dir():
-            raise ConfigError(f"{rf.path} is not a run folder with scenarios (regen generate makes one)")
-        for name, _folder, scenario, verdict in rf.scenarios_of("manipulation"):
-            if verdict is None or not verdict.feasible:
-                skipped.append(f"{rf.path.name}/{name}")
-                continue
-            out.append(_Entry(name if len(runs) == 1 else f"{rf.path.name}/{name}", scenario))
-    return out, skipped
 
 
 def encode(obs: Observation, time_left: float) -> np.ndarray:
@@ -143,17 +119,17 @@ class ManipulationEnv(gym.Env):
         if order not in ORDERS:
             raise ConfigError(f"unknown order {order!r}; choose one of: {', '.join(ORDERS)}")
         self.render_mode = None
-        self.entries, self.skipped = _entries(runs)
+        self.entries, self.skipped = verified(runs, DOMAIN)
+        self._picker = Picker(self.entries, order)
         if not self.entries:
             raise ConfigError(f"no verified manipulation scenario in {runs} ({len(self.skipped)} did not "
                               "verify): regen generate --domain manipulation makes them")
         self.order, self.collision_penalty, self.success_bonus = order, collision_penalty, success_bonus
         self.observation_space = spaces.Box(-LIMIT, LIMIT, shape=(OBS_SIZE,), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(4,), dtype=np.float32)
-        self._cursor = 0
         self._slot: dict[str, Session | None] = {"session": None}
         self._finalizer = weakref.finalize(self, _close_slot, self._slot)  # no client outlives the env
-        self._entry: _Entry | None = None
+        self._entry: Entry | None = None
         self._last: Observation | None = None
 
     @property
@@ -166,25 +142,10 @@ class ManipulationEnv(gym.Env):
         built-in policy can drive the env); None before reset."""
         return self._last
 
-    def _pick(self, options: dict | None, seeded: bool) -> _Entry:
-        if options and options.get("scenario") is not None:
-            for e in self.entries:
-                if e.name == str(options["scenario"]):
-                    return e
-            raise ConfigError(f"no scenario {options['scenario']!r}; choose one of: {', '.join(self.scenario_names)}")
-        n = len(self.entries)
-        if self.order == "random":
-            return self.entries[int(self.np_random.integers(n))]
-        if seeded:
-            self._cursor = int(self.np_random_seed) % n
-        entry = self.entries[self._cursor % n]
-        self._cursor = (self._cursor + 1) % n
-        return entry
-
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         _close_slot(self._slot)
-        entry = self._pick(options, seed is not None)
+        entry = self._picker.pick(options, self.np_random, seed)
         if entry.prepared is None:
             entry.prepared = prepare(entry.scenario)
         self._slot["session"], self._entry = Session(entry.prepared), entry
