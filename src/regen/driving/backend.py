@@ -20,7 +20,7 @@ from regen.core.trace import Trace
 from regen.core.verdict import Verdict
 from regen.driving.assets import RESOURCE
 from regen.driving.grounding.rules import ground_rule_based
-from regen.driving.world.ego import EGO_TEMPLATES, template_for
+from regen.driving.world.egos import EGO_TEMPLATES, template_for
 from regen.errors import ConfigError, GroundingError
 
 if TYPE_CHECKING:

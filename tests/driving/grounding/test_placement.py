@@ -1,6 +1,6 @@
 from regen.driving.grounding.placement import solve
 from regen.driving.world.actors import ActorSpec
-from regen.driving.world.ego import EGO_TEMPLATES
+from regen.driving.world.egos import EGO_TEMPLATES
 
 
 def _actor(name, asset, primitive, location, speed_class, size):

@@ -13,7 +13,7 @@ from regen.driving.grounding.rules import check_roles, choose_map, default_locat
 from regen.driving.primitives import for_actor, get, is_state_only, registry
 from regen.driving.primitives.base import MOTION_PREDICATES, Placed
 from regen.driving.world.actors import ActorSpec, RoleChoice
-from regen.driving.world.ego import EGO_TEMPLATES
+from regen.driving.world.egos import EGO_TEMPLATES
 from regen.driving.world.locations import LOCATIONS
 from regen.errors import GroundingError
 from regen.verify.predicates import list_predicates

@@ -1,6 +1,6 @@
 import math
 
-from regen.driving.world.ego import JUNCTION_CX
+from regen.driving.world.egos import JUNCTION_CX
 from regen.driving.world.maps import JUNCTION_RADIUS
 
 

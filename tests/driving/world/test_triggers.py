@@ -9,7 +9,7 @@ import dataclasses
 import pytest
 from driving_chains import FEASIBLE, chain  # noqa: E402
 
-from regen.driving.world.ego import EGO_TEMPLATES  # noqa: E402
+from regen.driving.world.egos import EGO_TEMPLATES  # noqa: E402
 from regen.driving.world.triggers import (  # noqa: E402
     Trigger,
     approach,

@@ -44,7 +44,7 @@ from regen.driving.grounding.rules import choose_map
 from regen.driving.primitives import get, is_state_only
 from regen.driving.primitives.base import SPEED_CLASSES
 from regen.driving.world.actors import RoleChoice
-from regen.driving.world.ego import EgoTemplate
+from regen.driving.world.egos import EgoTemplate
 from regen.errors import GroundingError
 from regen.verify.predicates import PredicateSpec
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 from regen.core.scenario import PredicateCall
 from regen.driving.primitives import for_actor, is_state_only
 from regen.driving.world.actors import PEDESTRIAN_ASSETS, RoleChoice
-from regen.driving.world.ego import EgoTemplate
+from regen.driving.world.egos import EgoTemplate
 from regen.driving.world.maps import geometry
 from regen.driving.world.properties import state_schedules
 from regen.verify.predicates import PredicateSpec, list_predicates
@@ -99,24 +99,14 @@ def top_speed(r: RoleChoice) -> float | None:
 
 def _ego_never(call: PredicateCall, t: EgoTemplate) -> str | None:
     name = call.name
-    why = f"{call} never holds: the ego {t.description}"
     top = max([t.speed0] + [v for _, v, _ in t.schedule])
     if name in ("moving", "steady") and _min_speed(call) >= top:
         return f"{call} never holds: the ego drives at most {top:g} m/s"
-    if name == "turning" and t.id != "stop_after_turn":
-        return why
-    if name == "changing_lane" and t.id not in ("change_lane", "stop_after_turn"):
-        return why
-    if name == "stopped" and t.id in ("slow_down", "change_lane"):
-        return why
-    if name in ("braking", "brake_lights_on") and t.id in ("drive_forward", "change_lane"):
-        return why
-    if name == "accelerating" and t.id != "drive_forward":  # starts at its cruising speed
-        return why
-    if name == "in_junction" and t.id == "stop_abruptly":
-        return why + " and stops before any junction"
+    never = t.never_holds(call)
+    if never:
+        return never
     if name == "on_sidewalk":
-        return why
+        return f"{call} never holds: the ego {t.description}"
     if name in _PROPERTY_PREDICATES:
         return f"{call} never holds: the ego has no such property in this toolkit"
     return None

@@ -17,46 +17,16 @@ from regen.core.scenario import FSM, AbstractState, PredicateCall, Stage, StateR
 from regen.driving.primitives import for_actor
 from regen.driving.primitives.base import RuleStates, State, pred
 from regen.driving.world.actors import RoleChoice
-from regen.driving.world.ego import EgoTemplate
+from regen.driving.world.egos import EgoTemplate
 from regen.verify.predicates import get_predicate
 
 Calls = list[PredicateCall]
 CAUSES_ADDED = "cause stages added by rules: "  # how the note of cause stages added to an FSM starts
 
-# Predicates of the ego's reaction, per kind of ego template: an ego state that names one (not
-# negated) is a reaction state, and every cause stage must come before the first of them.
-_STOPPING = frozenset({"braking", "stopped", "slower_than", "brake_lights_on"})
-REACTION_PREDICATES: dict[str, frozenset[str]] = {
-    "drive_forward": frozenset({"moving", "accelerating", "steady"}),
-    "slow_down": frozenset({"braking", "slower_than", "brake_lights_on"}),
-    "change_lane": frozenset({"changing_lane"}),  # and being in another lane than at the start
-    "stop_abruptly": _STOPPING,
-    "stop_after_turn": _STOPPING,
-    "stop_in_intersection": _STOPPING,
-}
-
 
 def ego_states(t: EgoTemplate) -> tuple[State, list[State]]:
     """(initial state, reaction states in order) of the ego."""
-    e = "ego"
-    if t.id == "drive_forward":
-        return ("waiting", [pred("stopped", e)]), [("driving_off", [pred("moving", e, min_speed=2.0),
-                                                                    pred("accelerating", e)])]
-    if t.id == "slow_down":
-        return ("driving", [pred("moving", e, min_speed=8.0)]), [
-            ("slowing", [pred("braking", e, min_decel=1.0)]),
-            ("driving_slowly", [pred("moving", e, min_speed=1.0), pred("slower_than", e, max_speed=6.0)])]
-    if t.id == "change_lane":
-        return ("driving", [pred("moving", e, min_speed=5.0), pred("in_lane", e, lane=1)]), [
-            ("changing_lane", [pred("changing_lane", e)]),
-            ("in_new_lane", [pred("in_lane", e, lane=0), pred("moving", e, min_speed=5.0)])]
-    events: list[State] = []
-    events.append(("braking", [pred("braking", e, min_decel=4.0)]))
-    stopped = [pred("stopped", e)]
-    if t.id == "stop_in_intersection":
-        stopped.append(pred("in_junction", e))
-    events.append(("stopped", stopped))
-    return ("driving", [pred("moving", e, min_speed=3.0)]), events
+    return t.ego_states()
 
 
 def actor_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:
@@ -98,10 +68,9 @@ def rule_based_fsm(roles: list[RoleChoice], t: EgoTemplate) -> FSM:
     (ename, ecalls), events = ego_states(t)
     states.append(AbstractState(name=ename, actor="ego", all_of=ecalls))
     stages = [Stage(conditions=first + [StateRef(actor="ego", state=ename)])]
-    if t.id == "stop_after_turn":  # the turn comes before the causes of the stop
-        states.append(AbstractState(name="turning", actor="ego",
-                                    all_of=[pred("turning", "ego"), pred("moving", "ego", min_speed=2.0)]))
-        stages.append(Stage(conditions=[StateRef(actor="ego", state="turning")]))
+    for name, calls in t.prelude():  # a turn that comes before the causes of the stop
+        states.append(AbstractState(name=name, actor="ego", all_of=calls))
+        stages.append(Stage(conditions=[StateRef(actor="ego", state=name)]))
     stages += [Stage(conditions=[StateRef(actor=c.actor, state=c.name)]) for c in causes]
     for name, calls in events:
         states.append(AbstractState(name=name, actor="ego", all_of=calls))
@@ -117,17 +86,7 @@ def rule_based_fsm(roles: list[RoleChoice], t: EgoTemplate) -> FSM:
 def is_reaction(state: AbstractState, t: EgoTemplate) -> bool:
     """Whether ``state`` is one of the ego's reaction (braking, stopped, changing lane, driving
     off ...) for the ego template ``t``."""
-    if state.actor != "ego":
-        return False
-    names = REACTION_PREDICATES.get(t.id, _STOPPING)
-    for c in state.all_of:
-        if c.negate:
-            continue
-        if c.name in names:
-            return True
-        if t.id == "change_lane" and c.name == "in_lane" and int(float(c.params.get("lane", 0))) != t.ego_lane:
-            return True
-    return False
+    return t.is_reaction(state)
 
 
 def _param(call: PredicateCall, key: str) -> float | int | str | bool:
@@ -220,5 +179,5 @@ def with_cause_states(fsm: FSM, roles: list[RoleChoice], t: EgoTemplate) -> tupl
     return FSM(states=list(states.values()), stages=out), added
 
 
-__all__ = ["CAUSES_ADDED", "REACTION_PREDICATES", "actor_states", "cause_states", "ego_states", "entails", "is_reaction",
+__all__ = ["CAUSES_ADDED", "actor_states", "cause_states", "ego_states", "entails", "is_reaction",
            "rule_based_fsm", "with_cause_states"]

@@ -58,7 +58,7 @@ from regen.driving.grounding.rules import (
 )
 from regen.driving.primitives import get
 from regen.driving.world.actors import RoleChoice
-from regen.driving.world.ego import EgoTemplate, template_for
+from regen.driving.world.egos import EgoTemplate, template_for
 from regen.driving.world.locations import LOCATIONS, location_from_text
 from regen.errors import ConfigError, GroundingError, MalformedAnswerError
 from regen.templates import render

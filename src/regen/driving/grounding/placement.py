@@ -15,7 +15,7 @@ from typing import Any
 from regen.core.scenario import SolverReport
 from regen.driving.primitives import for_actor
 from regen.driving.world.actors import ActorSpec
-from regen.driving.world.ego import EgoTemplate
+from regen.driving.world.egos import EgoTemplate
 from regen.driving.world.placement import DM, PlacementModel
 
 SOLVED = ("s", "v", "t", "d0")  # the parameters a scenario keeps per actor

@@ -26,7 +26,7 @@ from regen.driving.grounding.placement import solve
 from regen.driving.primitives import for_actor, get, is_state_only
 from regen.driving.primitives.base import SPEED_CLASSES, Placed
 from regen.driving.world.actors import PARKED_ASSETS, PEDESTRIAN_ASSETS, ActorSpec, RoleChoice
-from regen.driving.world.ego import EGO_SIZE, EgoTemplate, on_junction_map, template_for
+from regen.driving.world.egos import EGO_SIZE, EgoTemplate, on_junction_map, template_for
 from regen.driving.world.locations import LOCATIONS, Location, location_from_text
 from regen.driving.world.maps import geometry
 from regen.driving.world.plan import ActorPlan
@@ -294,14 +294,14 @@ def choose_map(template: EgoTemplate, roles: list[RoleChoice]) -> EgoTemplate:
         if not options:
             raise _cannot_host(needs_junction, f"ego template {t.id!r} runs on a road without a junction")
         t = on_junction_map(t, options[0])
-    if t.id == "stop_after_turn" and needs_junction:
-        raise _cannot_host(needs_junction, "after its turn the ego is past the junction")
+    if t.passes_junction and needs_junction:
+        raise _cannot_host(needs_junction, t.passes_junction)
     if needs_lanes and t.frame.lanes_same_direction < 2:
         raise _cannot_host(needs_lanes, f"the ego's road ({t.map}) has no second lane in its direction")
-    if t.id == "stop_after_turn":
+    if t.starts_elsewhere:
         behind = [r for r in roles if _where(r).behind_ego]
         if behind:
-            raise _cannot_host(behind, "behind the ego: it starts on another road before its turn")
+            raise _cannot_host(behind, t.starts_elsewhere)
     return t
 
 

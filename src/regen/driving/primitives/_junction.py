@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from regen.driving.primitives.base import Constrain, Placed, RuleStates, pred
 from regen.driving.world.actors import ActorSpec, RoleChoice
-from regen.driving.world.ego import JUNCTION_CX, EgoTemplate
+from regen.driving.world.egos import JUNCTION_CX, EgoTemplate
 from regen.driving.world.maps import JUNCTION_RADIUS
 from regen.driving.world.placement import DM, PlacementModel
 from regen.driving.world.plan import ActorPlan, Point

@@ -8,7 +8,7 @@ from typing import Any
 
 from regen.driving.primitives.base import LANE_CHANGE_LENGTH, Placed
 from regen.driving.world.actors import ActorSpec
-from regen.driving.world.ego import Frame
+from regen.driving.world.egos import Frame
 from regen.driving.world.placement import DM, PlacementModel
 from regen.driving.world.plan import ActorPlan, LaneChange
 from regen.driving.world.triggers import offset_reached

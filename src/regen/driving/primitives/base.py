@@ -13,12 +13,12 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
-from regen.core.scenario import PredicateCall
 from regen.driving.world.actors import PEDESTRIAN_ASSETS, ActorSpec, RoleChoice, scenic_class
-from regen.driving.world.ego import EgoTemplate
+from regen.driving.world.egos import EgoTemplate
 from regen.driving.world.locations import lateral_offset
 from regen.driving.world.placement import PlacementModel
 from regen.driving.world.plan import ActorPlan
+from regen.driving.world.states import State, pred
 
 SPEED_CLASSES = ("slow", "moderate", "fast")
 # Predicates about an actor's own motion: none of them holds for an actor that does not move.
@@ -42,14 +42,6 @@ class SpeedClasses:
 
 VEHICLE_SPEEDS = SpeedClasses(slow=(3.0, 7.0), moderate=(7.0, 12.0), fast=(12.0, 18.0))
 WALK_SPEEDS = SpeedClasses(slow=(0.8, 1.2), moderate=(1.2, 1.8), fast=(1.8, 3.0))
-
-
-def pred(name: str, *args: str, negate: bool = False, **params: float | str) -> PredicateCall:
-    """A predicate call, e.g. ``pred("in_front", "sedan1", "ego", distance=40.0)``."""
-    return PredicateCall(name=name, args=list(args), params=params, negate=negate)
-
-
-State = tuple[str, list[PredicateCall]]  # (state name, predicates that all hold in it)
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -9,7 +9,7 @@ from __future__ import annotations
 from regen.driving.primitives import _lanes
 from regen.driving.primitives.base import RuleStates, VehiclePrimitive, pred
 from regen.driving.world.actors import ActorSpec, RoleChoice
-from regen.driving.world.ego import EgoTemplate
+from regen.driving.world.egos import EgoTemplate
 from regen.driving.world.placement import PlacementModel
 
 

@@ -20,7 +20,7 @@ from regen.driving.primitives.base import (
     pred,
 )
 from regen.driving.world.actors import ActorSpec, RoleChoice
-from regen.driving.world.ego import EGO_SIZE, EgoTemplate
+from regen.driving.world.egos import EGO_SIZE, EgoTemplate
 from regen.driving.world.locations import LOCATIONS
 from regen.driving.world.placement import DM, PlacementModel
 from regen.driving.world.plan import ActorPlan

@@ -16,7 +16,7 @@ from typing import Any
 from regen.driving.primitives import _lanes
 from regen.driving.primitives.base import Placed, RuleStates, VehiclePrimitive, pred
 from regen.driving.world.actors import ActorSpec, RoleChoice
-from regen.driving.world.ego import EgoTemplate
+from regen.driving.world.egos import EgoTemplate
 from regen.driving.world.placement import DM, PlacementModel
 from regen.driving.world.plan import ActorPlan
 from regen.driving.world.triggers import Trigger, approach, ego_slower

@@ -7,7 +7,7 @@ import math
 from regen.driving.primitives import _switch
 from regen.driving.primitives.base import Placed, Primitive, RuleStates, pred
 from regen.driving.world.actors import ActorSpec, RoleChoice
-from regen.driving.world.ego import EgoTemplate
+from regen.driving.world.egos import EgoTemplate
 from regen.driving.world.placement import PlacementModel
 from regen.driving.world.plan import ActorPlan
 from regen.driving.world.triggers import approach

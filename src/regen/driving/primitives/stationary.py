@@ -7,7 +7,7 @@ from typing import Any
 
 from regen.driving.primitives.base import Placed, Primitive, RuleStates, pred
 from regen.driving.world.actors import ActorSpec, RoleChoice
-from regen.driving.world.ego import EGO_SIZE, JUNCTION_CX, EgoTemplate
+from regen.driving.world.egos import EGO_SIZE, JUNCTION_CX, EgoTemplate
 from regen.driving.world.locations import LOCATIONS
 from regen.driving.world.maps import JUNCTION_RADIUS
 from regen.driving.world.placement import DM, PlacementModel

@@ -11,7 +11,7 @@ import math
 from regen.driving.primitives import _switch, stationary
 from regen.driving.primitives.base import Placed, Primitive, RuleStates, pred
 from regen.driving.world.actors import ActorSpec, RoleChoice
-from regen.driving.world.ego import EgoTemplate
+from regen.driving.world.egos import EgoTemplate
 from regen.driving.world.maps import geometry
 from regen.driving.world.placement import PlacementModel
 from regen.driving.world.plan import ActorPlan
@@ -55,7 +55,7 @@ def _rule_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:
     if shown == "turns_red":
         return RuleStates(cause=(("green", [pred("light_is", a, value="green")]),
                                  ("red", [pred("light_is", a, value="red")])))
-    if shown == "red" and t.id == "drive_forward":
+    if shown == "red" and t.waits_at_start:
         return RuleStates(cause=(("red", [pred("light_is", a, value="red")]),
                                  ("green", [pred("light_is", a, value="green")])))
     return RuleStates(cause=((f"shows_{shown}", [pred("light_is", a, value=shown)]),))

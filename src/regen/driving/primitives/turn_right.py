@@ -6,7 +6,7 @@ import math
 
 from regen.driving.primitives import _junction
 from regen.driving.primitives.base import Placed, VehiclePrimitive
-from regen.driving.world.ego import JUNCTION_CX, arc
+from regen.driving.world.egos import JUNCTION_CX, arc
 from regen.driving.world.maps import JUNCTION_RADIUS
 from regen.driving.world.plan import ActorPlan
 

@@ -7,7 +7,7 @@ import math
 from regen.driving.primitives import _lanes
 from regen.driving.primitives.base import PedestrianPrimitive, Placed, RuleStates, pred
 from regen.driving.world.actors import ActorSpec, RoleChoice
-from regen.driving.world.ego import EgoTemplate
+from regen.driving.world.egos import EgoTemplate
 from regen.driving.world.locations import LOCATIONS
 from regen.driving.world.placement import PlacementModel
 from regen.driving.world.plan import ActorPlan

@@ -17,7 +17,7 @@ import numpy as np
 
 from regen.core.trace import ActorTrack, Trace
 from regen.driving.simulation.run import RawRun
-from regen.driving.world.ego import JUNCTION_CX
+from regen.driving.world.egos import JUNCTION_CX
 from regen.driving.world.maps import MapGeometry
 from regen.driving.world.plan import ActorPlan
 from regen.driving.world.triggers import fire_times

@@ -55,7 +55,7 @@ class Prepared:
 
     scenario: Scenario
     plans: list[ActorPlan]
-    template: object  # regen.driving.world.ego.EgoTemplate
+    template: object  # regen.driving.world.egos.EgoTemplate
     compiled: object  # scenic Scenario
     dt: float  # [s]
     steps: int

@@ -45,7 +45,7 @@ Key = tuple[str, str]  # (actor, parameter)
 class _Feasible:
     """The rebuilt placement model's ingredients and each parameter's feasible range [model units]."""
 
-    template: Any  # regen.driving.world.ego.EgoTemplate
+    template: Any  # regen.driving.world.egos.EgoTemplate
     actors: list[Any]  # regen.driving.world.actors.ActorSpec
     bounds: dict[Key, tuple[int, int]] = field(default_factory=dict)
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from regen.driving.world.actors import PARKED_ASSETS
-from regen.driving.world.ego import EgoTemplate
+from regen.driving.world.egos import EgoTemplate
 
 Side = Literal["right", "left"]
 

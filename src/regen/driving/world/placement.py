@@ -16,7 +16,7 @@ from typing import Any
 
 from regen.cpsat import NamedModel
 from regen.driving.world.actors import ActorSpec
-from regen.driving.world.ego import EGO_SIZE, EgoTemplate
+from regen.driving.world.egos import EGO_SIZE, EgoTemplate
 
 DM = 10  # decimetres per metre (and deciseconds per second)
 

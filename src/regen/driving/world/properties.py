@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from regen.driving.world.actors import RoleChoice
-from regen.driving.world.ego import EgoTemplate
+from regen.driving.world.egos import EgoTemplate
 
 # Properties that say how an actor moves, not a state it shows.
 MOTION_PROPERTIES = frozenset({"behavior", "start_location", "end_location", "target_speed"})
@@ -29,7 +29,7 @@ def state_schedules(r: RoleChoice, params: Mapping[str, float], t: EgoTemplate) 
         elif key == "light_state":
             if val == "turns_red":
                 out[key] = [(0.0, "green"), (max(0.0, ts - YELLOW_TIME), "yellow"), (ts, "red")]
-            elif val == "red" and t.id == "drive_forward":
+            elif val == "red" and t.waits_at_start:
                 out[key] = [(0.0, "red"), (ts, "green")]
             else:
                 out[key] = [(0.0, val)]

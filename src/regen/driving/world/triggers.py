@@ -1,6 +1,6 @@
 """Reactive triggers: an actor's cause action starts on a condition relative to the ego.
 
-Every actor plan is written against the scripted template ego (:mod:`regen.driving.world.ego`): its
+Every actor plan is written against the scripted template ego (:mod:`regen.driving.world.egos`): its
 schedule and property states are in *template time*, and its cause action starts at the solved
 trigger time ``t_trig`` [s]. A :class:`Trigger` says what the template ego is doing at that
 moment, so that any ego sets it off in the same situation:
@@ -44,7 +44,7 @@ import math
 from dataclasses import dataclass
 from typing import Literal
 
-from regen.driving.world.ego import MAX_BRAKE, EgoTemplate
+from regen.driving.world.egos import MAX_BRAKE, EgoTemplate
 
 MIN_SPEED = 0.5  # below this ego speed [m/s] the time to arrival is not used
 HOLD = 1e-3  # an untriggered actor holds its schedule this long [s] before t_trig
