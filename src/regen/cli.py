@@ -312,6 +312,8 @@ def generate_cmd(
              + (f", by the model with rule stages: {by['model+rules']}" if by.get("model+rules") else "")]
     notes += [f"{relaxed} after relaxing their FSM"] if relaxed else []
     notes += [f"{summary['cause_not_shown']} did not show their cause"] if summary["cause_not_shown"] else []
+    notes += ([f"{summary['unfaithful']} played out but showed another cause than their title (unfaithful)"]
+              if summary["unfaithful"] else [])
     console.print(f"[bold]{result.feasible}/{len(result.outcomes)} scenarios feasible[/]"
                   + (f" ({'; '.join(notes)})" if notes else "")
                   + f" ({escape(result.manifest.status)}); model: "

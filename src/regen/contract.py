@@ -58,6 +58,10 @@ class Wording:
     #: world; expansion rejects such causes after the judge (``by="rule"``), unless the user
     #: insisted on them. Searched with ``re.search``; the first match is quoted in the reason.
     mechanics: tuple[str, ...] = ROBOT_ORDERS
+    #: entity judge: worked examples shown before each question whether an entity the model
+    #: added takes part in an event, as (event, entity, "yes" or "no"); a few short ones of the
+    #: domain, none from a labeled set
+    entity_examples: tuple[tuple[str, str, str], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -127,6 +131,12 @@ class DomainBackend(ABC):
         Default: no restrictions.
         """
         return None
+
+    def own_objects(self, behavior: Behavior) -> frozenset[str]:
+        """Assets that belong to the robot's own task in ``behavior`` (the door it opens): never
+        a cause's entity, since a cause must be shown by the world around the task. Default:
+        none."""
+        return frozenset()
 
     def settings_key(self, behavior: Behavior) -> dict[str, str | None]:
         """Behavior fields that change results in this domain (recorded and compared on resume)."""

@@ -20,7 +20,7 @@ import os
 import re
 import time
 import traceback
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -48,6 +48,7 @@ from regen.runfolder import (
     now,
     read_model,
 )
+from regen.verify import fidelity
 from regen.verify.monitor import validate_fsm
 
 log = logging.getLogger(__name__)
@@ -89,10 +90,12 @@ def slug(text: str, n: int = 40) -> str:
     return s[:n].rstrip("-") or "scenario"
 
 
-def select_paths(paths: list[CausePath], k: int) -> list[CausePath]:
-    """Up to ``k`` paths: one per root cause first (diversity across causes), then property
-    variants of the same causes (same cause, different properties), in graph order."""
+def select_paths(paths: list[CausePath], k: int, *, first: Collection[str] = ()) -> list[CausePath]:
+    """Up to ``k`` paths: the causes in ``first`` (given with ``--cause``) before all others,
+    whatever ``k``; then one per root cause (diversity across causes), then property variants
+    of the same causes (same cause, different properties), in graph order."""
     variants = [p.variants() for p in paths]
+    variants.sort(key=lambda v: v[0].events[0] not in first)  # stable: graph order otherwise
     firsts = [v[0] for v in variants]
     rest = [p for v in variants for p in v[1:]]
     seen: set[str] = set()
@@ -124,6 +127,25 @@ def _fatal(exc: BaseException) -> bool:
 # --- stage: ground -------------------------------------------------------------------------------
 
 
+def _model_fidelity(backend: DomainBackend, scenario: Scenario, llm: LLM) -> Scenario:
+    """Where rules cannot tell whether the scenario shows its cause (its words name no asset),
+    the model's yes/no answer, kept on the scenario for the verifier."""
+    rules = fidelity.check_rules(scenario, backend.database(), robot=backend.report_hints.robot,
+                                 own=backend.own_objects(scenario.behavior))
+    if rules.status != "undecided":
+        return scenario
+    try:
+        asked = fidelity.ask_model(scenario, llm, robot=backend.report_hints.robot)
+    except KeyboardInterrupt:
+        raise
+    except Exception as exc:
+        if _fatal(exc):
+            raise
+        log.warning("fidelity question for %s failed: %s", scenario.id, exc)
+        return scenario
+    return scenario.model_copy(update={"fidelity": asked})
+
+
 def ground_stage(backend: DomainBackend, path: CausePath, llm: LLM | None, folder: ScenarioFolder, *,
                  seed: int = 0) -> Verdict | None:
     """Ground one cause path into ``folder``. Returns the verdict when the scenario ends here
@@ -144,6 +166,8 @@ def ground_stage(backend: DomainBackend, path: CausePath, llm: LLM | None, folde
         verdict = _failed("ungroundable" if isinstance(exc, UngroundableError) else "grounding_failed", reason)
         folder.write_verdict(verdict)
         return verdict
+    if llm is not None:
+        scenario = _model_fidelity(backend, scenario, llm)
     folder.write_scenario(scenario, backend.config(scenario))
     folder.add_timings({"ground": time.perf_counter() - t0, "solve": scenario.solver.wall_time})
     status = scenario.solver.status
@@ -185,6 +209,9 @@ def simulate_stage(domain: str, scenario_dir: str, pictures: bool = True) -> dic
         folder.write_trace(sim.trace)
         t0 = time.perf_counter()
         verdict, judged = backend.verify(scenario, sim.trace)
+        rules = fidelity.check_rules(judged, backend.database(), robot=backend.report_hints.robot,
+                                     own=backend.own_objects(judged.behavior), trace=sim.trace)
+        verdict = fidelity.with_fidelity(verdict, fidelity.combine(rules, scenario.fidelity))
         timings["verify"] = time.perf_counter() - t0
     except KeyboardInterrupt:
         raise
@@ -327,7 +354,8 @@ def _stages(run: RunFolder, manifest: RunManifest, backend: DomainBackend, setti
         interrupts.check()
         save_graph(graph, run.path, pictures=settings.pictures)
         timed("expand", t0)
-        paths = select_paths(graph.paths(), settings.max_scenarios)
+        insisted = {n.label for n in graph.events() if any(d.by == "user" for d in n.history)}
+        paths = select_paths(graph.paths(), settings.max_scenarios, first=insisted)
         manifest.scenarios = folder_names(paths)
         run.write_manifest(manifest)
         emit("paths", total=len(paths), names=manifest.scenarios)
@@ -424,6 +452,7 @@ def summarize(manifest: RunManifest, outcomes: list[ScenarioOutcome]) -> dict[st
             "relaxed": sum(bool(o.verdict.relaxations) for o in outcomes),
             "with_fallbacks": sum(bool(o.verdict.fallbacks) for o in outcomes),
             "cause_not_shown": statuses.get("cause_not_shown", 0),
+            "unfaithful": statuses.get("unfaithful", 0),
             "verified_fsm_source": _fsm_sources(outcomes),
             "timings": manifest.timings, "usage": manifest.usage.get("total", {})}
 

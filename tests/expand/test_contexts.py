@@ -187,12 +187,11 @@ def test_entities_the_model_names_are_matched_and_the_match_recorded() -> None:
     g = _expand("manipulation", model)
     ent = _node(g, "plant", "entity")
     assert ent.status == "accepted" and ent.asset == "plant"
-    match, accepted = ent.history
-    assert (match.action, match.by) == ("merged", "rule")
-    assert match.reason == "matched 'watering_plant' to asset 'plant' (similarity 0.80)"
-    assert (accepted.action, accepted.by) == ("accepted", "model")
+    (accepted,) = ent.history  # the event names the plant: the database decides, whatever the model wrote
+    assert (accepted.action, accepted.by) == ("accepted", "database")
+    assert accepted.reason == "the event names it (its id)"
     dog = _node(g, "pet", "entity")
-    assert dog.history[0].by == "database" and "'dog' to asset 'pet'" in dog.history[0].reason
+    assert dog.history[0].by == "database" and dog.history[0].reason == "the event names it (its id)"
     radio = _node(g, "radio", "entity")
     assert radio.status == "rejected" and radio.history[-1].by == "database"
     assert radio.history[-1].reason == "'radio' is not in the manipulation asset database"
@@ -206,8 +205,8 @@ def test_driving_aliases_match_and_the_papers_tree_stays_unsimulatable() -> None
     model = ScriptedModel(causes={STOP: [jay, amb, tree]},
                           entities={jay: ["pedestrian"], amb: ["car", "ego vehicle"], tree: ["tree"]})
     g = _expand("driving", model)
-    assert _node(g, "adult", "entity").history[0].reason == (
-        "resolved 'pedestrian' to asset 'adult' (one of its names in the database)")
+    # the event's own word names the asset: the database decides, whatever name the model used
+    assert _node(g, "adult", "entity").history[0].reason == "the event names it (its alias 'jaywalker')"
     assert _node(g, "sedan", "entity").status == "accepted"
     ego = _node(g, "ego vehicle", "entity")  # never guessed to be a sedan
     assert ego.status == "rejected" and "names the ego-vehicle itself" in ego.history[-1].reason
@@ -251,7 +250,7 @@ def test_a_forced_cause_is_accepted_despite_the_judge_and_expanded() -> None:
     assert edge.status == "accepted" and edge.history[-1] == accepted
     # then entities and properties like any other cause
     (path,) = g.paths()
-    assert path.events == [guest, DOOR] and {e.asset for e in path.entities} == {"adult", "door"}
+    assert path.events == [guest, DOOR] and {e.asset for e in path.entities} == {"adult"}  # not its door
     assert next(e for e in path.entities if e.asset == "adult").properties["location"] == ["outside the door"]
     # a --candidate keeps its judged meaning: rejected, and kept with the judge's reason
     ghost = _node(g, "a ghost opens it")
@@ -267,8 +266,10 @@ def test_a_forced_mechanical_cause_is_accepted_with_a_note() -> None:
     model = ScriptedModel(causes={DOOR: []}, entities={cause: ["door"]})
     g = _expand("manipulation", model, forced_causes=[cause])
     n = _node(g, cause)
-    assert n.status == "accepted"
-    assert n.history[-1].reason.endswith("the mechanics rule would have rejected it ('the robot is programmed')")
+    accepted = next(d for d in n.history if d.action == "accepted")
+    assert accepted.reason.endswith("the mechanics rule would have rejected it ('the robot is programmed')")
+    # the only entity offered is the door the robot opens: its own task, no cause's entity
+    assert n.status == "unsimulatable" and "own task object" in n.history[-1].reason
 
 
 def test_a_forced_cause_keeps_the_users_words_when_the_model_proposes_it_too() -> None:

@@ -13,7 +13,7 @@ class ScriptedModel:
     def __init__(self, causes: dict[str, list[str]], plausible: dict[str, bool] | None = None,
                  entities: dict[str, list[str]] | None = None, values: dict[str, list[str]] | None = None,
                  choose: dict[str, list[str]] | None = None, then: list | None = None,
-                 otherwise: str | None = None):
+                 otherwise: str | None = None, part_of: dict[str, bool] | None = None):
         self.causes = causes
         self.plausible = plausible or {}
         self.entities = entities or {}
@@ -21,6 +21,7 @@ class ScriptedModel:
         self.choose = choose or {}
         self.then = list(then or [])
         self.otherwise = otherwise
+        self.part_of = part_of or {}  # entity asset -> the entity judge's answer (default yes)
         self.kinds: list[str] = []
 
     def __call__(self, messages) -> str:
@@ -33,6 +34,10 @@ class ScriptedModel:
             c = re.findall(r'^Candidate: "(.*)"$', text, re.M)[-1]  # the worked examples come first
             self.kinds.append("judge")
             return json.dumps({"answer": "yes" if self.plausible.get(c, True) else "no", "reason": f"because {c}"})
+        if "Decide whether the entity takes part in the event" in text:
+            asset = re.findall(r'^Entity: "(.*)" \(', text, re.M)[-1]  # the worked examples come first
+            self.kinds.append("entity_judge")
+            return json.dumps({"answer": "yes" if self.part_of.get(asset, True) else "no"})
         if "The simulator can only create these entities" in text:
             ev = re.search(r'Event: "(.*?)"', text).group(1)
             self.kinds.append("entities")

@@ -78,6 +78,12 @@ def name_words(text: str) -> list[str]:
     return [_singular(w) for w in text.split() if w not in _STOPWORDS]
 
 
+def _surface(text: str) -> list[str]:
+    """The words of a name as written (lower case, no articles), not made singular."""
+    text = re.sub(r"[^a-z0-9 ]+", " ", text.lower().replace("_", " ").replace("-", " "))
+    return [w for w in text.split() if w not in _STOPWORDS]
+
+
 def _singular(word: str) -> str:
     if len(word) > 4 and word.endswith(("ches", "shes", "xes", "sses")):
         return word[:-2]
@@ -129,7 +135,7 @@ class AssetMatch(Model):
 
     asset: str
     similarity: float  # 0-1, see :func:`similarity`
-    via: Literal["id", "alias", "description"]
+    via: Literal["id", "alias", "description", "state", "paraphrase"]
     key: str  # the id, alias or description phrase that matched
 
     def describe(self, name: str) -> str:
@@ -209,6 +215,78 @@ class AssetDatabase(Model):
                 if score > top:  # strictly better: ties keep the earlier asset
                     top, best = score, AssetMatch(asset=aid, similarity=round(score, 2), via=via, key=key)
         return best
+
+    def named_in(self, text: str, *, exclude: str = "", skip: frozenset[str] = frozenset()) -> list[AssetMatch]:
+        """The assets ``text`` names, in the order it names them: an asset's id, one of its
+        aliases or a description phrase of two words or more, as whole words (plural or
+        singular, any case). Where names overlap the longest wins ('police car' over 'car'),
+        and an id over an alias over a description. Words of ``exclude`` (what the domain calls
+        its robot: 'ego-vehicle') name no asset where they occur together; assets in ``skip``
+        are never returned. Each match has ``similarity`` 1.0 and the matched name as ``key``.
+        """
+        words = name_words(text)
+        surface = _surface(text)  # as written: a plural key ('pedestrians') beats a singular one
+        blocked: set[int] = set()
+        own = name_words(exclude)
+        for i in range(len(words) - len(own) + 1):
+            if own and words[i:i + len(own)] == own:
+                blocked.update(range(i, i + len(own)))
+        found: list[tuple[int, int, int, int, int, str, str, str]] = []  # (-length, exact, rank, start, order, ...)
+        for order, (aid, spec) in enumerate(self.assets.items()):
+            if aid in skip:
+                continue
+            keys = [("id", aid), *(("alias", a) for a in spec.aliases)]
+            keys += [("description", d) for d in _main_phrases(spec.description) if len(d.split()) > 1]
+            for rank, (via, key) in enumerate(keys):
+                kw = name_words(key)
+                for i in range(len(words) - len(kw) + 1):
+                    if kw and words[i:i + len(kw)] == kw and blocked.isdisjoint(range(i, i + len(kw))):
+                        exact = 0 if surface[i:i + len(kw)] == _surface(key) else 1
+                        found.append((-len(kw), exact, min(rank, 2), i, order, aid, via, key))
+        taken: set[int] = set()
+        out: dict[str, tuple[int, AssetMatch]] = {}
+        for neg_len, _, _, start, _, aid, via, key in sorted(found):
+            span = set(range(start, start - neg_len))
+            if span & taken:
+                continue
+            taken |= span
+            if aid not in out:
+                out[aid] = (start, AssetMatch(asset=aid, similarity=1.0, via=via, key=key))  # type: ignore[arg-type]
+        return [m for _, m in sorted(out.values(), key=lambda x: x[0])]
+
+    def implied_by_states(self, text: str, *, skip: frozenset[str] = frozenset()) -> list[AssetMatch]:
+        """Assets that ``text`` names through a state only they have: a phrase of a property's
+        ``named_by`` ('turns red') whose property belongs to exactly one asset (a traffic light)."""
+        out: list[AssetMatch] = []
+        for prop, spec in self.properties.items():
+            owners = [a for a in self.assets if prop in self.parameters_of(a) and a not in skip]
+            if len(owners) != 1 or not spec.named_by:
+                continue
+            named = self.named_state(owners[0], prop, text)
+            if named is not None and len(named[1].split()) > 1:  # one word ('jammed') is too loose
+                out.append(AssetMatch(asset=owners[0], similarity=1.0, via="state",
+                                      key=f"{named[1]} ({prop} = {named[0]})"))
+        return out
+
+    def named_assets(self, text: str, *, robot: str = "", own: frozenset[str] = frozenset()) -> dict[str, str]:
+        """Asset -> why, for every asset ``text`` names: by an id, alias or description phrase
+        (:meth:`named_in`, the words of ``robot`` excluded), or by a state only it has
+        (:meth:`implied_by_states`). ``own``: assets never returned (a task's own object)."""
+        out: dict[str, str] = {}
+        for m in self.named_in(text, exclude=robot, skip=own):
+            what = "its id" if m.via == "id" else f"its {m.via} '{m.key}'"
+            out[m.asset] = f"the event names it ({what})"
+        for m in self.implied_by_states(text, skip=own):
+            out.setdefault(m.asset, f"the event names a state only it has: {m.key}")
+        return out
+
+    def answers_to(self, asset: str, name: str) -> bool:
+        """Whether ``asset`` is a thing ``name`` may mean: its id, an alias or a description
+        phrase shares ``name``'s head noun closely enough (:func:`similarity`): a 'car' may be a
+        police car or a parked car, an 'emergency vehicle' a fire truck, never a traffic cone."""
+        spec = self.assets[asset]
+        keys = [asset, *spec.aliases, *_main_phrases(spec.description)]
+        return any(similarity(name, k) >= MATCH_THRESHOLD for k in keys)
 
     def category_of(self, asset: str) -> str | None:
         for cat, members in self.categories.items():

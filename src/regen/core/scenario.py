@@ -13,6 +13,7 @@ from pydantic import Field, field_validator, model_validator
 
 from regen.core.base import Model
 from regen.core.behavior import Behavior
+from regen.core.verdict import Fidelity
 
 Scalar = float | int | str | bool
 
@@ -123,6 +124,9 @@ class Scenario(Model):
     # who wrote the FSM the verdict is about: the model, the domain's rules, or the model with
     # stages added by rules (e.g. the cause stages it left out)
     fsm_source: Literal["model", "rules", "model+rules"] = "rules"
+    # what the cause's words name against what this scenario shows, when a model was asked at
+    # grounding (rules are applied again at verification)
+    fidelity: Fidelity | None = None
 
     @model_validator(mode="after")
     def _actors_known(self) -> Scenario:

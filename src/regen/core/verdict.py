@@ -18,9 +18,24 @@ class StageResult(Model):
 
 VerdictStatus = Literal["verified", "verified_after_relaxation", "cause_not_shown", "fsm_incomplete",
                         "unsatisfiable", "ungroundable", "grounding_failed", "simulation_failed",
-                        "invalid_scenario"]
+                        "invalid_scenario", "unfaithful"]
 #: The statuses of a scenario that played out (``feasible`` is true exactly for these).
 FEASIBLE_STATUSES: tuple[str, ...] = ("verified", "verified_after_relaxation")
+
+
+class Fidelity(Model):
+    """Whether a scenario shows what its cause's words name (its entities and their states).
+
+    ``unfaithful``: the text names something the scenario does not show (a traffic signal, and
+    the scenario shows a traffic cone; an ambulance let pass, and its siren is off).
+    ``undecided``: the text names nothing rules can compare and no model was asked."""
+
+    status: Literal["faithful", "unfaithful", "undecided"]
+    by: Literal["rule", "model"] = "rule"
+    reason: str = ""
+    named: list[str] = Field(default_factory=list)  # what the cause text names ('traffic_light', 'siren = on')
+    shown: list[str] = Field(default_factory=list)  # what the scenario shows ('traffic_cone (stationary)')
+    call_id: str | None = None  # the model call that decided, when ``by`` is 'model'
 
 
 class Verdict(Model):
@@ -29,7 +44,9 @@ class Verdict(Model):
     ``cause_not_shown``: the simulation ran, but a state in which the cause plays out was never
     reached (before the robot's reaction), so the scenario does not show its cause.
     ``ungroundable``: grounding could not honor what the causal graph decided (an entity's
-    behavior, start location, speed or state) and says which; it never swaps it silently."""
+    behavior, start location, speed or state) and says which; it never swaps it silently.
+    ``unfaithful``: the FSM played out, but the scenario does not show the entities or states
+    its cause's words name (``fidelity`` says what the text names and what the scenario shows)."""
 
     feasible: bool
     status: VerdictStatus
@@ -40,6 +57,7 @@ class Verdict(Model):
     placement_relaxations: list[str] = Field(default_factory=list)  # what the solver relaxed
     fallbacks: list[str] = Field(default_factory=list)  # scenario parts rules wrote for the model
     conflicts: list[str] = Field(default_factory=list)
+    fidelity: Fidelity | None = None  # what the cause names against what the scenario shows
 
     @model_validator(mode="after")
     def _feasible_matches_status(self) -> Verdict:

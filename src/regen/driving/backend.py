@@ -41,6 +41,12 @@ class DrivingBackend(DomainBackend):
         cause_rule=("Each cause must involve other road users, objects, traffic lights or the ego's "
                     "sensors/driver, not the ego-vehicle's own mechanics."),
         value_hint='relative to the ego-vehicle (lane and side), e.g. "behind the ego-vehicle in the same lane"',
+        entity_examples=(
+            ("a boy on a scooter darts out between parked cars", "child", "yes"),
+            ("a boy on a scooter darts out between parked cars", "barrier", "no"),
+            ("the truck ahead sheds part of its load", "debris", "yes"),
+            ("the truck ahead sheds part of its load", "traffic_light", "no"),
+        ),
         judge_examples=(
             ("the ego-vehicle swerved to the left", "a parked truck blocked its lane", "yes",
              "it must steer around the truck to pass"),

@@ -5,6 +5,7 @@ Mount it in the main app with ``app.command("eval")(eval_command)``.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Annotated
 
@@ -43,9 +44,18 @@ def eval_command(
     trials: Annotated[int, typer.Option(help="Edge-construction trials.")] = 5,
     list_examples: Annotated[bool, typer.Option(
         "--list-examples", help="List the bundled example text sets and exit.")] = False,
+    fidelity: Annotated[str | None, typer.Option(
+        "--fidelity", help="Labeled cause texts (JSON lines, or 'driving' / 'manipulation' for the "
+                           "bundled sets): runs each insisted cause through the main job with --llm "
+                           "into --out (resumable) and reports entity and key-state accuracy and "
+                           "verified-but-unfaithful scenarios, per split.")] = None,
 ) -> None:
-    """Diversity (embedding and Self-BLEU), feasibility, controllability and edge accuracy."""
+    """Diversity (embedding and Self-BLEU), feasibility, controllability, edge accuracy and
+    entity fidelity."""
     console = Console()
+    if fidelity is not None:
+        _fidelity(fidelity, out, llm, console)
+        return
     if list_examples:
         for name, about in bundled_sets().items():
             console.print(f"{EXAMPLE_PREFIX}{name}\t{about}")
@@ -72,6 +82,37 @@ def eval_command(
         Console(stderr=True, soft_wrap=True).print(f"[red]error:[/red] {escape(clean(str(exc)))}")
         raise typer.Exit(code=exc.exit_code) from exc
     print_report(report, console)
+
+
+def _fidelity(source: str, out: Path | None, llm: str, console: Console) -> None:
+    from rich.table import Table
+
+    from regen.evaluation.fidelity import evaluate_fidelity, table
+    from regen.evaluation.fidelity_set import load_cases
+
+    if out is None:
+        Console(stderr=True).print("[red]error:[/red] --fidelity needs --out FOLDER (the runs of every "
+                                   "case go there; rerunning resumes)")
+        raise typer.Exit(code=2)
+    try:
+        cases = load_cases(source)
+        with console.status("fidelity") as status:
+            results = evaluate_fidelity(cases, out, llm=llm, progress=lambda msg: status.update(escape(msg)))
+    except RegenError as exc:
+        Console(stderr=True, soft_wrap=True).print(f"[red]error:[/red] {escape(clean(str(exc)))}")
+        raise typer.Exit(code=exc.exit_code) from exc
+    rows = table(results)
+    t = Table(title=f"Entity fidelity ({len(results)} cases, model {escape(llm)})")
+    for col in ("domain", "split", "cases", "entity acc.", "key-state acc.", "verified",
+                "verified & unfaithful", "unfaithful verdicts"):
+        t.add_column(col)
+    for r in rows:
+        state = "-" if r["state_accuracy"] is None else f"{r['state_accuracy']:.2f}"
+        t.add_row(r["domain"], r["split"], str(r["cases"]), f"{r['entity_accuracy']:.2f}", state,
+                  str(r["verified"]), str(r["verified_and_unfaithful"]), str(r["unfaithful_verdicts"]))
+    console.print(t)
+    (out / "fidelity_table.json").write_text(json.dumps(rows, indent=2) + "\n", encoding="utf-8")
+    console.print(f"per case: {escape(str(out / 'fidelity.jsonl'))}")
 
 
 def make_app() -> typer.Typer:

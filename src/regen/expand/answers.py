@@ -32,6 +32,12 @@ class EdgeVerdict(Answer):
     reason: str
 
 
+class YesNo(Answer):
+    """A yes/no judgement with no reason (the entity judge: short and decisive)."""
+
+    answer: Literal["yes", "no"]
+
+
 class EntityChoice(Answer):
     name: str
     reason: str = ""

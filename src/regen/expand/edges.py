@@ -18,7 +18,7 @@ from regen.assets.database import MATCH_THRESHOLD, AssetDatabase, name_words
 from regen.core.base import Answer
 from regen.core.behavior import Behavior
 from regen.errors import ConfigError
-from regen.expand.answers import EdgeVerdict, EntitySelection, EventProposal
+from regen.expand.answers import EdgeVerdict, EntitySelection, EventProposal, YesNo
 from regen.expand.dedupe import normalize, similar
 from regen.llm.client import LLM
 from regen.templates import render
@@ -42,6 +42,8 @@ class Judged:
     # for a similarity guess, and how)
     matched: dict[str, tuple[str, str]] = field(default_factory=dict)
     calls: dict[str, str] = field(default_factory=dict)  # candidate -> the call that judged it alone
+    # accepted candidate -> why the database decided it (the event's words name it)
+    named: dict[str, str] = field(default_factory=dict)
 
     def call_for(self, candidate: str) -> str:
         """The id of the call that decided ``candidate``."""
@@ -89,6 +91,9 @@ class DomainView:
 
     def property_choices(self, asset: str, behavior: Behavior | None = None) -> Choices | None:
         return self.backend.property_choices(asset, behavior)
+
+    def own_objects(self, behavior: Behavior | None) -> frozenset[str]:
+        return self.backend.own_objects(behavior) if behavior is not None else frozenset()
 
 
 Domain = Union[str, DomainView]  # noqa: UP007  (a domain's name, or its view)
@@ -179,32 +184,72 @@ def judge_events(llm: LLM, domain: Domain, chain: list[str], candidates: list[st
     return out
 
 
-def select_entities(llm: LLM, db: AssetDatabase, domain: Domain, chain: list[str]) -> Judged:
-    """Entities of the database directly related to the event ``chain[0]``."""
+def named_entities(db: AssetDatabase, domain: Domain, event: str, *, own: frozenset[str] = frozenset()
+                   ) -> dict[str, str]:
+    """Asset -> why, for the assets ``event``'s words name (:meth:`AssetDatabase.named_assets`,
+    the robot's own name excluded); ``own``: the robot's task objects, never named here."""
+    return db.named_assets(event, robot=domain_view(domain).robot, own=own)
+
+
+def judge_entity(llm: LLM, db: AssetDatabase, domain: Domain, event: str, asset: str):
+    """One yes/no call: does ``asset`` take part in ``event``? (with the domain's worked examples)"""
     domain = domain_view(domain)
-    options = db.entities()
+    prompt = _render("entity_edge", domain, event=event, entity=asset,
+                     description=db.assets[asset].description)
+    return llm.ask(prompt, YesNo, purpose="entity_judge", system=domain.system)
+
+
+def select_entities(llm: LLM, db: AssetDatabase, domain: Domain, chain: list[str], *,
+                    behavior: Behavior | None = None) -> Judged:
+    """Entities of the database directly related to the event ``chain[0]``.
+
+    The assets the event's words name (:func:`named_entities`) are taken whatever the model
+    answers, first, as decided by the database; an asset only the model chose must also pass a
+    yes/no judge (:func:`judge_entity`), else it is rejected with the judge's answer. The
+    robot's own task objects (``DomainBackend.own_objects``) are never a cause's entity.
+    """
+    domain = domain_view(domain)
+    own = domain.own_objects(behavior)
+    options = [a for a in db.entities() if a not in own]
     prompt = _render("entity_edges", domain, chain=chain, source=chain[0],
                     entities=[(a, db.assets[a].description) for a in options])
     got = llm.ask(prompt, EntitySelection, purpose="entity_edges", system=domain.system)
     out = Judged(call_id=got.call_id)
+    for asset, why in named_entities(db, domain, chain[0], own=own).items():
+        out.accepted[asset] = why
+        out.named[asset] = why
     robot = domain.robot
     # words that name the robot itself ('ego' of 'ego-vehicle'): never guessed to be another asset
-    own = {w for w in name_words(robot) if db.resolve(w) is None}
+    own_words = {w for w in name_words(robot) if db.resolve(w) is None}
+    picked: dict[str, str] = {}
     for ch in got.value.entities:
         target, how = _match(ch.name, options), None
         if target is not None and normalize(ch.name).replace(" ", "_") != normalize(target).replace(" ", "_"):
             how = ("rule", f"read '{ch.name}' as asset '{target}' (nearly the same name)")
         if target is None and (target := db.resolve(ch.name)) is not None:
             how = ("database", f"resolved '{ch.name}' to asset '{target}' (one of its names in the database)")
-        if target is None and own.isdisjoint(name_words(ch.name)):
+        if target is None and own_words.isdisjoint(name_words(ch.name)):
             if (m := db.match(ch.name)) is not None:
                 target, how = m.asset, ("rule", m.describe(ch.name))
+        if target in own:
+            out.rejected[target] = (f"'{target}' is the {robot}'s own task object, not a cause of the "
+                                    "task: a cause is shown by the world around it")
+            continue
         if target is None:
-            out.unknown[ch.name] = _unknown_reason(db, ch.name, robot, own)
-        elif target not in out.accepted:
-            out.accepted[target] = ch.reason or "directly related"
+            out.unknown[ch.name] = _unknown_reason(db, ch.name, robot, own_words)
+        elif target not in out.accepted and target not in picked:
+            picked[target] = ch.reason or "directly related"
             if how:
                 out.matched[target] = how
+    extra = [a for a in picked if a not in out.named]
+    verdicts = llm.map(lambda a: judge_entity(llm, db, domain, chain[0], a), extra)
+    for asset, v in zip(extra, verdicts, strict=True):
+        out.calls[asset] = v.call_id
+        if v.value.answer == "yes":
+            out.accepted[asset] = picked[asset]
+        else:
+            out.matched.pop(asset, None)
+            out.rejected[asset] = f"the entity judge answered no: a {asset} takes no part in: {chain[0]}"
     return out
 
 
@@ -305,6 +350,18 @@ def _choice_models(options: dict[str, tuple[str, list[str]]], choices: Choices |
     return out
 
 
+def only_names(role: str, options: dict[str, tuple[str, list[str]]]) -> bool:
+    """Whether a role sentence says nothing beyond the names of the offered properties and
+    values ("drive_forward (siren = off)"): no role for the values to agree with."""
+    names = {w for p, (_, values) in options.items() for n in (p, *values) for w in name_words(n)}
+    words = [w for w in name_words(role) if w not in _FILLER]
+    return not words or set(words) <= names
+
+
+_FILLER = frozenset({"it", "is", "are", "be", "to", "and", "at", "in", "on", "off", "with", "its", "this",
+                     "that", "does", "do", "has", "ha", "entity", "=", "value"})
+
+
 def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, entity: str,
                       options: dict[str, tuple[str, list[str]]],
                       choices: Choices | None = None,
@@ -337,13 +394,20 @@ def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, en
                 dropped = [p for p in {q for a in per.values() for q in a} if p not in allowed and p in options]
                 parts += [f"no {p}" for p in sorted(dropped)]
                 rules.append((value, "; ".join(parts) or "nothing else"))
-    prompt = _render("property_edges", domain, chain=chain, event=event, entity=entity,
-                     properties=[(p, d, v) for p, (d, v) in options.items()],
-                     key=choices[0] if rules else None, rules=rules, robot=domain.robot)
     example = ", ".join(f'"{p}": "<one value>"' for p in options)
-    prompt += ': {"role": "<what it does>", "choice": {' + example + "}}"
-    got = llm.ask(prompt, schema, purpose="property_edges", system=domain.system)
+
+    def ask(retry: str | None):
+        prompt = _render("property_edges", domain, chain=chain, event=event, entity=entity,
+                         properties=[(p, d, v) for p, (d, v) in options.items()],
+                         key=choices[0] if rules else None, rules=rules, robot=domain.robot, retry=retry)
+        prompt += ': {"role": "<what it does>", "choice": {' + example + "}}"
+        return llm.ask(prompt, schema, purpose="property_edges", system=domain.system)
+
+    got = ask(None)
     role = " ".join(got.value.role.split())
+    if only_names(role, options):  # "drive_forward (siren = off)" says no role: asked once more
+        got = ask(role)
+        role = " ".join(got.value.role.split())
     picked = got.value.choice.model_dump()
     key = choices[0] if choices else None
     out: dict[str, Judged] = {}

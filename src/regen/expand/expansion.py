@@ -239,17 +239,23 @@ class Expander:
         self._check(graph)
         results = self.llm.map(
             lambda n: edges.select_entities(self.llm, self.db, self._domain(graph),
-                                            self.chain(graph, n.id)), todo)
+                                            self.chain(graph, n.id), behavior=graph.behavior), todo)
         for ev, judged in zip(todo, results, strict=True):
-            for name, why in judged.unknown.items():
+            rejected = [(name, why, "database") for name, why in judged.unknown.items()]
+            rejected += [(name, why, "model" if name in judged.calls else "rule")
+                         for name, why in judged.rejected.items()]
+            for name, why, by in rejected:
                 bad = graph.add_node(Node(
                     id=node_id("entity", name, ev.id), kind="entity", label=name, status="rejected",
-                    history=[Decision(action="rejected", by="database", call_id=judged.call_id,
-                                      reason=why)]))
+                    history=[Decision(action="rejected", by=by, call_id=judged.call_for(name), reason=why)]))
                 graph.add_edge(bad.id, ev.id, status="rejected", decision=bad.history[-1])
             chosen = list(judged.accepted.items())[: self.limits.max_entities]
             for name, reason in chosen:
-                history = [Decision(action="accepted", by="model", call_id=judged.call_id, reason=reason)]
+                if name in judged.named:  # the event's words name it: the database decides
+                    history = [Decision(action="accepted", by="database", reason=reason)]
+                else:
+                    history = [Decision(action="accepted", by="model", call_id=judged.call_for(name),
+                                        reason=reason)]
                 if name in judged.matched:
                     # the model used another name: an alias of the asset, or the closest asset
                     by, how = judged.matched[name]
@@ -263,6 +269,8 @@ class Expander:
                 why = "no entity of the asset database can represent this event"
                 if judged.unknown:
                     why += f" (the model asked for: {', '.join(judged.unknown)})"
+                if judged.rejected:
+                    why += f" (rejected: {'; '.join(judged.rejected.values())})"
                 ev.history = ev.history + [Decision(action="marked_unsimulatable", by="model",
                                                     call_id=judged.call_id, reason=why)]
         self._notify(graph, "entities")

@@ -35,6 +35,12 @@ class ManipulationBackend(DomainBackend):
                     "puts the cup in the sink\": \"the cup is dirty after breakfast\". Never the robot's "
                     "own command, instruction, programming, sensors or mechanics."),
         value_hint='relative to the robot, the table or furniture, e.g. "on the table left of the robot"',
+        entity_examples=(
+            ("a guest is coming over for tea", "adult", "yes"),
+            ("a guest is coming over for tea", "trash_can", "no"),
+            ("the houseplant's leaves are wilting", "plant", "yes"),
+            ("the houseplant's leaves are wilting", "book", "no"),
+        ),
         judge_examples=(
             ("the robot puts the cup in the sink", "the cup is dirty after breakfast", "yes",
              "a dirty cup belongs in the sink to be washed"),
@@ -99,6 +105,14 @@ class ManipulationBackend(DomainBackend):
         if "power" in db.parameters_of(asset):
             fixed["power"] = ["on" if task.start_fraction > 0.5 else "off"]
         return (None, {None: fixed}) if fixed else None
+
+    def own_objects(self, behavior: Behavior) -> frozenset[str]:
+        """The furniture the task acts on and the item it moves (a door, the cup it stores)."""
+        try:
+            task = resolve(behavior.reward, behavior.text)
+        except ConfigError:
+            return frozenset()
+        return frozenset({task.asset} | ({task.item.asset} if task.item else set()))
 
     def settings_key(self, behavior: Behavior) -> dict[str, str | None]:
         return {"reward": resolve(behavior.reward, behavior.text).id}

@@ -1,0 +1,123 @@
+"""Fidelity: does the scenario show what its cause's words name?
+
+The FSM monitor says whether the scenario played out; this says whether what played out is
+the cause in the scenario's title. Before a scenario is called verified, its entities, their
+behaviors and states are compared with what each cause event's words name:
+
+1. every asset the text names (an id, alias or description phrase, or a state only that asset
+   has: :meth:`~regen.assets.database.AssetDatabase.named_assets`) is played by an entity that
+   answers to that name (a 'car' may be a police car, never a traffic cone);
+2. every state the text names for an entity's property (``named_by`` phrases of the database:
+   an ambulance let pass has its siren on) is the state that entity has;
+3. some entity other than the robot and its task's own objects shows the cause (a door alone
+   does not show a pet let in).
+
+A mismatch makes the verdict ``unfaithful`` (not feasible), with what the text names and what
+the scenario shows. Where the text names no asset, rules cannot decide: a yes/no model question
+(:func:`ask_model`, at grounding) decides and is recorded as such; without a model the fidelity
+is ``undecided`` and the verdict stays what the monitor said.
+
+Imports: the shared core, assets and llm; no domain.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Literal
+
+from regen.core.base import Answer
+from regen.core.verdict import Fidelity, Verdict
+from regen.templates import render
+
+if TYPE_CHECKING:
+    from regen.assets.database import AssetDatabase
+    from regen.core.scenario import Entity, Scenario
+    from regen.core.trace import Trace
+    from regen.llm.client import LLM
+
+
+def _shown(e: Entity) -> str:
+    props = ", ".join(f"{k} = {v}" for k, v in e.properties.items()
+                      if k not in ("behavior", "start_location", "target_speed", "location"))
+    what = e.behavior or "stationary"
+    return f"{e.asset} ({what}{'; ' + props if props else ''})"
+
+
+def check_rules(scenario: Scenario, db: AssetDatabase, *, robot: str = "",
+                own: frozenset[str] = frozenset(), trace: Trace | None = None) -> Fidelity:
+    """What the cause events' words name against what ``scenario`` shows (rules only).
+    ``robot``: the domain's word for the robot (its words name no asset); ``own``: the assets of
+    the robot's own task; ``trace``: the run, whose recorded states count too (a light that
+    starts red and turns green shows green)."""
+    cast = [e for e in scenario.entities if e.kind != "robot" and e.asset not in own
+            and e.asset in db.assets]
+    shown = [_shown(e) for e in cast]
+    causes = scenario.causal_graph[:-1] or scenario.causal_graph
+    if not cast:
+        return Fidelity(status="unfaithful", reason="the scenario shows no entity of its cause, only the "
+                        f"{robot or 'robot'} and its task's own objects", named=[], shown=shown)
+    named: list[str] = []
+    missing: list[str] = []
+    wrong: list[str] = []
+    for event in causes:
+        for m in db.named_in(event, exclude=robot, skip=own):  # a state alone names no entity here
+            named.append(m.asset)
+            if not any(e.asset == m.asset or db.answers_to(e.asset, m.key) for e in cast):
+                missing.append(f"'{event}' names a {m.key.replace('_', ' ')}")
+        for e in cast:
+            for prop in db.parameters_of(e.asset):
+                hit = db.named_state(e.asset, prop, event)
+                if hit is None:
+                    continue
+                state, phrase = hit
+                named.append(f"{e.name}.{prop} = {state}")
+                have = e.properties.get(prop) if prop != "behavior" else (e.behavior or e.properties.get(prop))
+                track = trace.actors.get(e.name) if trace is not None else None
+                during = set(track.states.get(prop, [])) if track is not None else set()
+                if have is not None and have != state and state not in during:
+                    wrong.append(f"'{phrase}' names {prop} = {state}, {e.name} has {prop} = {have}")
+    if missing or wrong:
+        return Fidelity(status="unfaithful", named=named, shown=shown,
+                        reason="; ".join(missing + wrong) + f"; the scenario shows {', '.join(shown)}")
+    if not any(not n.count(".") for n in named):  # no asset named: rules cannot say who plays it
+        return Fidelity(status="undecided", named=named, shown=shown,
+                        reason="the cause names no asset of the database; rules cannot decide")
+    return Fidelity(status="faithful", named=named, shown=shown,
+                    reason=f"shows what the cause names: {', '.join(dict.fromkeys(named))}")
+
+
+class _Shows(Answer):
+    answer: Literal["yes", "no"]
+
+
+def ask_model(scenario: Scenario, llm: LLM, *, robot: str, system: str | None = None) -> Fidelity:
+    """The yes/no question for a cause whose words name no asset: does this cast show it?"""
+    cast = [_shown(e) for e in scenario.entities if e.kind != "robot"]
+    cause = "; ".join(scenario.causal_graph[:-1] or scenario.causal_graph)
+    prompt = render("regen.verify", "fidelity", cause=cause, cast=cast, robot=robot)
+    got = llm.ask(prompt, _Shows, purpose="fidelity", system=system)
+    yes = got.value.answer == "yes"
+    return Fidelity(status="faithful" if yes else "unfaithful", by="model", call_id=got.call_id,
+                    shown=cast, reason=("the model judged that " + ", ".join(cast)
+                                        + (" show" if yes else " do not show") + f": {cause}"))
+
+
+def combine(rules: Fidelity, earlier: Fidelity | None) -> Fidelity:
+    """The rules' answer, or where they cannot decide the model's answer from grounding."""
+    if rules.status == "undecided" and earlier is not None and earlier.by == "model":
+        return earlier
+    return rules
+
+
+def with_fidelity(verdict: Verdict, fidelity: Fidelity) -> Verdict:
+    """``verdict`` with its fidelity; a verified scenario that is unfaithful becomes
+    ``unfaithful`` (not feasible), saying what the text names and what the scenario shows."""
+    if not verdict.feasible or fidelity.status != "unfaithful":
+        return verdict.model_copy(update={"fidelity": fidelity})
+    status: Literal["unfaithful"] = "unfaithful"
+    by = "a model judged" if fidelity.by == "model" else "rules found"
+    return verdict.model_copy(update={
+        "feasible": False, "status": status, "fidelity": fidelity,
+        "reason": f"the FSM played out, but the scenario does not show its cause ({by}): {fidelity.reason}"})
+
+
+__all__ = ["ask_model", "check_rules", "combine", "with_fidelity"]

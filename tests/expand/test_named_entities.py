@@ -1,0 +1,91 @@
+"""Entities the cause names are the entities grounded: the database decides them whatever the
+model answers; an entity only the model adds must pass the yes/no entity judge; the robot's
+own task objects are never a cause's entity."""
+
+from __future__ import annotations
+
+from fake_expansion_model import ScriptedModel
+
+from regen.assets.database import database_of
+from regen.core.behavior import Behavior
+from regen.core.graph import ScenarioGraph
+from regen.expand import Limits, expand
+from regen.llm import LLM
+from regen.llm.testing import FunctionProvider
+
+STOP = "the ego-vehicle stops abruptly while driving forward"
+DOOR = "the robot opens the door"
+
+
+def _expand(domain: str, model: ScriptedModel) -> ScenarioGraph:
+    text = {"driving": STOP, "manipulation": DOOR}[domain]
+    behavior = Behavior(text=text, domain=domain, **({"reward": "open_door"} if domain == "manipulation" else {}))
+    return expand(behavior, LLM(FunctionProvider(model)), limits=Limits(max_depth=1, max_causes=6, max_entities=3))
+
+
+def _node(graph: ScenarioGraph, label: str, kind: str = "event"):
+    return next(n for n in graph.nodes.values() if n.kind == kind and n.label == label)
+
+
+def test_a_cause_naming_an_alias_grounds_that_asset_whatever_the_model_picks() -> None:
+    signal = "the traffic signal suddenly changes"
+    model = ScriptedModel(causes={STOP: [signal]}, entities={signal: ["traffic_cone"]},
+                          part_of={"traffic_cone": False})
+    g = _expand("driving", model)
+    light = _node(g, "traffic_light", "entity")
+    assert light.status == "accepted"
+    assert [(d.action, d.by) for d in light.history] == [("accepted", "database")]
+    assert "alias 'traffic signal'" in light.history[0].reason
+    cone = _node(g, "traffic_cone", "entity")  # the model's pick: judged, rejected, recorded
+    assert cone.status == "rejected" and cone.history[-1].by == "model"
+    assert "entity judge answered no" in cone.history[-1].reason
+    assert "entity_judge" in model.kinds
+    (path,) = g.paths()
+    assert [e.asset for e in path.entities] == ["traffic_light"]
+
+
+def test_a_model_added_entity_that_passes_the_judge_is_kept_after_the_named_one() -> None:
+    crash = "a cyclist is hit by a car ahead"
+    model = ScriptedModel(causes={STOP: [crash]}, entities={crash: ["debris"]})
+    g = _expand("driving", model)
+    assets = [e.asset for e in g.paths()[0].entities]
+    assert assets[:2] == ["bicycle", "sedan"]  # named, in the order the text names them
+    assert _node(g, "bicycle", "entity").history[0].by == "database"
+
+
+def test_a_cause_no_asset_can_play_is_unsimulatable_with_the_reason() -> None:
+    speed = "speed enforcement is ahead"
+    # 'speed camera' is read as the ego's own camera by its name; the judge says it takes no part
+    model = ScriptedModel(causes={STOP: [speed]}, entities={speed: ["speed camera", "traffic_cone"]},
+                          part_of={"traffic_cone": False, "camera": False})
+    g = _expand("driving", model)
+    ev = _node(g, speed)
+    assert ev.status == "unsimulatable"
+    why = ev.history[-1].reason
+    assert "camera takes no part" in why and "traffic_cone takes no part" in why
+    assert not g.paths()
+
+
+def test_a_manipulation_cause_never_takes_the_task_object_for_its_entity() -> None:
+    cat = "the cat scratches at the door to come in"
+    model = ScriptedModel(causes={DOOR: [cat]}, entities={cat: ["door"]},
+                          values={"location": ["outside the door"]})
+    g = _expand("manipulation", model)
+    pet = _node(g, "pet", "entity")
+    assert pet.status == "accepted" and pet.history[0].by == "database"
+    door = _node(g, "door", "entity")
+    assert door.status == "rejected" and "own task object" in door.history[-1].reason
+    assert [e.asset for e in g.paths()[0].entities] == ["pet"]
+
+
+def test_names_overlap_the_longest_wins_and_the_robot_names_nothing() -> None:
+    db = database_of("driving")
+    got = lambda t: [m.asset for m in db.named_in(t, exclude="ego-vehicle")]  # noqa: E731
+    assert got("a police car blocks the road") == ["police_car"]  # not a sedan ('car')
+    assert got("a car cuts in front of the ego-vehicle") == ["sedan"]  # 'vehicle' of ego-vehicle: none
+    assert got("pedestrians cross") == ["pedestrian_group"]  # the plural alias, as written
+    assert got("the GPS signal is jammed") == ["gnss"]  # not the traffic 'signal'
+    assert got("a tree fell on the road") == []
+    implied = [m.asset for m in db.implied_by_states("the lights at the crossing turn red")]
+    assert implied == ["traffic_light"]  # a state only a traffic light has
+    assert db.implied_by_states("traffic is jammed") == []  # one word names no state-owner

@@ -1,0 +1,88 @@
+"""Verified means the named cause is what the scenario shows: the fidelity rules, the
+``unfaithful`` verdict, and the model's yes/no answer where rules cannot decide."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from regen import domains
+from regen.core.verdict import Fidelity, Verdict
+from regen.verify.fidelity import check_rules, combine, with_fidelity
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "support"))
+from driving_chains import FEASIBLE, chain  # noqa: E402
+
+from regen.driving.grounding.rules import ground_rule_based  # noqa: E402
+
+DRIVING = domains.make("driving")
+DB = DRIVING.database()
+ROBOT = DRIVING.report_hints.robot
+VERIFIED = Verdict(feasible=True, status="verified", reason="all stages reached")
+
+
+def _fidelity(path) -> Fidelity:
+    return check_rules(ground_rule_based(path, seed=0), DB, robot=ROBOT)
+
+
+def test_a_cone_for_a_signal_change_is_unfaithful_and_never_verified() -> None:
+    wrong = chain("stop_abruptly", "the traffic signal suddenly changes",
+                  ("traffic_cone", {"start_location": ["ahead_same_lane"]}))
+    f = _fidelity(wrong)
+    assert f.status == "unfaithful"
+    assert "names a traffic signal" in f.reason and "traffic_cone" in f.reason
+    v = with_fidelity(VERIFIED, f)
+    assert (v.feasible, v.status) == (False, "unfaithful")
+    assert "traffic_cone" in v.reason and v.fidelity == f
+
+
+def test_a_state_the_cause_names_must_be_the_state_shown() -> None:
+    silent = chain("stop_abruptly", "an ambulance rushes to an emergency call from behind",
+                   ("ambulance", {"behavior": ["drive_forward"], "siren": ["off"], "target_speed": ["fast"],
+                                  "start_location": ["behind_adjacent_lane"]}))
+    f = _fidelity(silent)
+    assert f.status == "unfaithful" and "siren = on" in f.reason and "siren = off" in f.reason
+    loud = chain("stop_abruptly", "an ambulance rushes to an emergency call from behind",
+                 ("ambulance", {"behavior": ["drive_forward"], "siren": ["on"], "target_speed": ["fast"],
+                                "start_location": ["behind_adjacent_lane"]}))
+    assert _fidelity(loud).status == "faithful"
+
+
+def test_a_generic_name_accepts_a_kind_of_it_but_not_another_thing() -> None:
+    police = chain("stop_abruptly", "a car brakes in front",
+                   ("police_car", {"behavior": ["drive_forward"], "start_location": ["ahead_same_lane"]}))
+    assert _fidelity(police).status == "faithful"  # a police car is a car
+    debris = chain("stop_abruptly", "a car brakes in front",
+                   ("debris", {"start_location": ["ahead_same_lane"]}))
+    assert _fidelity(debris).status == "unfaithful"
+
+
+def test_every_hand_written_chain_is_faithful_or_undecided() -> None:
+    for paths in FEASIBLE.values():
+        for p in paths:
+            assert _fidelity(p).status in ("faithful", "undecided") or p.events[0] == \
+                "the traffic light turns green", p.events[0]  # shown green only in its trace
+
+
+def test_no_asset_named_is_undecided_and_the_models_answer_counts() -> None:
+    vague = chain("stop_abruptly", "something unexpected happens ahead",
+                  ("debris", {"start_location": ["ahead_same_lane"]}))
+    rules = _fidelity(vague)
+    assert rules.status == "undecided"
+    assert with_fidelity(VERIFIED, rules).status == "verified"
+    said_no = Fidelity(status="unfaithful", by="model", reason="the model judged ...")
+    assert combine(rules, said_no) == said_no
+    assert with_fidelity(VERIFIED, combine(rules, said_no)).status == "unfaithful"
+    faithful = Fidelity(status="faithful", reason="x")
+    assert combine(faithful, said_no) == faithful  # rules decide where they can
+
+
+def test_a_scenario_with_only_the_task_object_is_unfaithful() -> None:
+    from regen.core.scenario import Entity
+
+    s = ground_rule_based(chain("stop_abruptly", "a child runs across the road",
+                                ("child", {"behavior": ["cross_the_road"], "start_location": ["roadside_ahead"]})))
+    own = frozenset({"child"})  # as if the child were the robot's own task object
+    f = check_rules(s, DB, robot=ROBOT, own=own)
+    assert f.status == "unfaithful" and "no entity of its cause" in f.reason
+    assert isinstance(s.entities[0], Entity)
