@@ -3,7 +3,9 @@
 Usage: python scripts/record_cassettes.py [expand] [generate] [ground] [--llm local]
 
 Prompts are part of each cache key: after changing a prompt template or an answer schema, run
-this again and commit the new cassettes under tests/data/cassettes/.
+this again and commit the new cassettes under tests/data/cassettes/. With ``--reuse``, the
+answers of the committed cassette whose prompts did not change are kept (the model answers only
+the new prompts) and the answers no prompt asks any more are dropped.
 """
 
 from __future__ import annotations
@@ -28,15 +30,46 @@ GENERATE = ("generate_driving", Behavior(text="the ego-vehicle stops abruptly wh
                                          domain="driving"))
 
 
+class UsedCache(CallCache):
+    """A cache that remembers which entries were read or written, to export only those."""
+
+    def __init__(self, path, seed: Path | None = None):
+        super().__init__(path)
+        if seed is not None and seed.exists():
+            self.import_json(seed)
+        self.used: set[str] = set()
+
+    def get(self, key: str):
+        got = super().get(key)
+        if got is not None:
+            self.used.add(key)
+        return got
+
+    def put(self, key, provider_id, purpose, completion, latency) -> None:
+        super().put(key, provider_id, purpose, completion, latency)
+        if hasattr(self, "used"):
+            self.used.add(key)
+
+    def export_used(self, path: Path) -> int:
+        with self._lock:
+            keys = [k for (k,) in self._db.execute("SELECT key FROM calls").fetchall() if k not in self.used]
+            self._db.executemany("DELETE FROM calls WHERE key = ?", [(k,) for k in keys])
+            self._db.commit()
+        return self.export_json(path)
+
+
+REUSE = False  # set by --reuse
+
+
 def record_expansions(llm_spec: str, only: list[str] | None = None) -> None:
     for name, (behavior, limits) in EXPANSIONS.items():
         if only and name not in only:
             continue
-        cache = CallCache(None)
+        cache = UsedCache(None, OUT / f"{name}.json" if REUSE else None)
         llm = LLM(llm_spec, cache=cache)
         t0 = time.perf_counter()
         g = expand(behavior, llm, limits=limits)
-        n = cache.export_json(OUT / f"{name}.json")
+        n = cache.export_used(OUT / f"{name}.json")
         print(f"{name}: {n} answers, {len(g.paths())} paths, {time.perf_counter() - t0:.0f} s; "
               f"{llm.stats.summary()}")
 
@@ -48,8 +81,10 @@ def record_generate(llm_spec: str) -> None:
     run = Path(tempfile.mkdtemp(prefix="regen-record-"))
     try:
         t0 = time.perf_counter()
-        res = generate(behavior, run, settings=RunSettings(llm=llm_spec, pictures=False))  # the main job's defaults
-        n = CallCache(run / "llm-cache.sqlite").export_json(OUT / f"{name}.json")
+        cache = UsedCache(run / "llm-cache.sqlite", OUT / f"{name}.json" if REUSE else None)
+        res = generate(behavior, run, settings=RunSettings(llm=llm_spec, pictures=False),  # the main job's defaults
+                       llm=LLM(llm_spec, cache=cache))
+        n = cache.export_used(OUT / f"{name}.json")
         print(f"{name}: {n} answers, {res.feasible}/{len(res.outcomes)} feasible, "
               f"{time.perf_counter() - t0:.0f} s")
         for o in res.outcomes:
@@ -114,7 +149,10 @@ def main() -> None:
     ap.add_argument("what", nargs="*", default=["expand", "generate", "ground"])
     ap.add_argument("--llm", default="local")
     ap.add_argument("--only", action="append", help="record only these expansions (repeatable)")
+    ap.add_argument("--reuse", action="store_true", help="keep the committed answers of unchanged prompts")
     args = ap.parse_args()
+    global REUSE
+    REUSE = args.reuse
     OUT.mkdir(parents=True, exist_ok=True)
     if "expand" in args.what:
         record_expansions(args.llm, args.only)

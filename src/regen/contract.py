@@ -62,6 +62,10 @@ class Wording:
     #: added takes part in an event, as (event, entity, "yes" or "no"); a few short ones of the
     #: domain, none from a labeled set
     entity_examples: tuple[tuple[str, str, str], ...] = ()
+    #: Phrases a cause uses for the robot itself ('the vehicle' in "a cyclist crosses while the
+    #: vehicle is moving"): they name no asset of the database. A phrase starting with 'the'
+    #: still names another one when a place follows ('the vehicle ahead').
+    robot_names: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)

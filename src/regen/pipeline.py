@@ -127,10 +127,14 @@ def _fatal(exc: BaseException) -> bool:
 # --- stage: ground -------------------------------------------------------------------------------
 
 
+def _robot_names(backend: DomainBackend) -> tuple[str, ...]:
+    return (backend.report_hints.robot, *backend.wording.robot_names)
+
+
 def _model_fidelity(backend: DomainBackend, scenario: Scenario, llm: LLM) -> Scenario:
     """Where rules cannot tell whether the scenario shows its cause (its words name no asset),
     the model's yes/no answer, kept on the scenario for the verifier."""
-    rules = fidelity.check_rules(scenario, backend.database(), robot=backend.report_hints.robot,
+    rules = fidelity.check_rules(scenario, backend.database(), robot=_robot_names(backend),
                                  own=backend.own_objects(scenario.behavior))
     if rules.status != "undecided":
         return scenario
@@ -209,7 +213,7 @@ def simulate_stage(domain: str, scenario_dir: str, pictures: bool = True) -> dic
         folder.write_trace(sim.trace)
         t0 = time.perf_counter()
         verdict, judged = backend.verify(scenario, sim.trace)
-        rules = fidelity.check_rules(judged, backend.database(), robot=backend.report_hints.robot,
+        rules = fidelity.check_rules(judged, backend.database(), robot=_robot_names(backend),
                                      own=backend.own_objects(judged.behavior), trace=sim.trace)
         verdict = fidelity.with_fidelity(verdict, fidelity.combine(rules, scenario.fidelity))
         timings["verify"] = time.perf_counter() - t0

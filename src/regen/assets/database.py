@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import re
+from collections.abc import Sequence
 from difflib import SequenceMatcher
 from functools import lru_cache
 from importlib import resources
@@ -76,6 +77,23 @@ def name_words(text: str) -> list[str]:
     """The words of a name as matching compares them: lower case, singular, no articles."""
     text = re.sub(r"[^a-z0-9 ]+", " ", text.lower().replace("_", " ").replace("-", " "))
     return [_singular(w) for w in text.split() if w not in _STOPWORDS]
+
+
+# Words after 'the vehicle' that make it another vehicle than the robot ('the vehicle ahead').
+_PLACE_AFTER = ("ahead", "in front", "in the", "in its", "behind", "next", "beside", "parked", "opposite",
+                "oncoming", "to the", "to its", "on the", "at the", "that", "which", "who", "coming", "approaching")
+
+
+def _without_robot(text: str, names: list[str]) -> str:
+    """``text`` with every phrase that names the robot itself blanked (longest first)."""
+    out = " ".join(text.lower().replace("\u2019", "'").split())
+    place = "|".join(re.escape(p) for p in _PLACE_AFTER)
+    for name in sorted((n.lower() for n in names if n.strip()), key=len, reverse=True):
+        pattern = rf"(?<![\w-]){re.escape(name)}(?![\w-])"
+        if name.startswith("the "):  # a definite 'the vehicle' is the robot, unless placed elsewhere
+            pattern += rf"(?!\s+(?:{place})\b)"
+        out = re.sub(pattern, " itself ", out)  # a word no asset is named by
+    return out
 
 
 def _surface(text: str) -> list[str]:
@@ -216,21 +234,19 @@ class AssetDatabase(Model):
                     top, best = score, AssetMatch(asset=aid, similarity=round(score, 2), via=via, key=key)
         return best
 
-    def named_in(self, text: str, *, exclude: str = "", skip: frozenset[str] = frozenset()) -> list[AssetMatch]:
+    def named_in(self, text: str, *, exclude: str | Sequence[str] = "",
+                 skip: frozenset[str] = frozenset()) -> list[AssetMatch]:
         """The assets ``text`` names, in the order it names them: an asset's id, one of its
         aliases or a description phrase of two words or more, as whole words (plural or
         singular, any case). Where names overlap the longest wins ('police car' over 'car'),
-        and an id over an alias over a description. Words of ``exclude`` (what the domain calls
-        its robot: 'ego-vehicle') name no asset where they occur together; assets in ``skip``
-        are never returned. Each match has ``similarity`` 1.0 and the matched name as ``key``.
+        and an id over an alias over a description. The phrases of ``exclude`` (what the domain
+        calls its robot: 'ego-vehicle', 'the vehicle') name no asset where they occur, unless a
+        place follows ('the vehicle ahead' is another one); assets in ``skip`` are never returned. Each match has ``similarity`` 1.0 and the matched name as ``key``.
         """
+        text = _without_robot(text, [exclude] if isinstance(exclude, str) else list(exclude))
         words = name_words(text)
         surface = _surface(text)  # as written: a plural key ('pedestrians') beats a singular one
         blocked: set[int] = set()
-        own = name_words(exclude)
-        for i in range(len(words) - len(own) + 1):
-            if own and words[i:i + len(own)] == own:
-                blocked.update(range(i, i + len(own)))
         found: list[tuple[int, int, int, int, int, str, str, str]] = []  # (-length, exact, rank, start, order, ...)
         for order, (aid, spec) in enumerate(self.assets.items()):
             if aid in skip:
@@ -268,7 +284,8 @@ class AssetDatabase(Model):
                                       key=f"{named[1]} ({prop} = {named[0]})"))
         return out
 
-    def named_assets(self, text: str, *, robot: str = "", own: frozenset[str] = frozenset()) -> dict[str, str]:
+    def named_assets(self, text: str, *, robot: str | Sequence[str] = "",
+                     own: frozenset[str] = frozenset()) -> dict[str, str]:
         """Asset -> why, for every asset ``text`` names: by an id, alias or description phrase
         (:meth:`named_in`, the words of ``robot`` excluded), or by a state only it has
         (:meth:`implied_by_states`). ``own``: assets never returned (a task's own object)."""

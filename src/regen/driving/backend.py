@@ -41,6 +41,8 @@ class DrivingBackend(DomainBackend):
         cause_rule=("Each cause must involve other road users, objects, traffic lights or the ego's "
                     "sensors/driver, not the ego-vehicle's own mechanics."),
         value_hint='relative to the ego-vehicle (lane and side), e.g. "behind the ego-vehicle in the same lane"',
+        robot_names=("ego-vehicle", "ego vehicle", "ego car", "ego", "the vehicle", "the car",
+                     "the self-driving car", "the autonomous vehicle", "the driver"),
         entity_examples=(
             ("a boy on a scooter darts out between parked cars", "child", "yes"),
             ("a boy on a scooter darts out between parked cars", "barrier", "no"),

@@ -65,6 +65,11 @@ class DomainView:
         return self.backend.wording
 
     @property
+    def robot_names(self) -> tuple[str, ...]:
+        """Every phrase a cause may use for the robot itself (they name no asset)."""
+        return (self.robot, *self.wording.robot_names)
+
+    @property
     def robot(self) -> str:
         """What the domain calls the robot whose behavior is explained ('robot', 'ego-vehicle')."""
         return self.backend.report_hints.robot
@@ -188,7 +193,8 @@ def named_entities(db: AssetDatabase, domain: Domain, event: str, *, own: frozen
                    ) -> dict[str, str]:
     """Asset -> why, for the assets ``event``'s words name (:meth:`AssetDatabase.named_assets`,
     the robot's own name excluded); ``own``: the robot's task objects, never named here."""
-    return db.named_assets(event, robot=domain_view(domain).robot, own=own)
+    view = domain_view(domain)
+    return db.named_assets(event, robot=view.robot_names, own=own)
 
 
 def judge_entity(llm: LLM, db: AssetDatabase, domain: Domain, event: str, asset: str):

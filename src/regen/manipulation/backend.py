@@ -35,6 +35,7 @@ class ManipulationBackend(DomainBackend):
                     "puts the cup in the sink\": \"the cup is dirty after breakfast\". Never the robot's "
                     "own command, instruction, programming, sensors or mechanics."),
         value_hint='relative to the robot, the table or furniture, e.g. "on the table left of the robot"',
+        robot_names=("robot", "the robot arm", "the arm", "robot's gripper"),
         entity_examples=(
             ("a guest is coming over for tea", "adult", "yes"),
             ("a guest is coming over for tea", "trash_can", "no"),

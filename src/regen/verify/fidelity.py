@@ -22,6 +22,7 @@ Imports: the shared core, assets and llm; no domain.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Literal
 
 from regen.core.base import Answer
@@ -42,10 +43,10 @@ def _shown(e: Entity) -> str:
     return f"{e.asset} ({what}{'; ' + props if props else ''})"
 
 
-def check_rules(scenario: Scenario, db: AssetDatabase, *, robot: str = "",
+def check_rules(scenario: Scenario, db: AssetDatabase, *, robot: str | Sequence[str] = "",
                 own: frozenset[str] = frozenset(), trace: Trace | None = None) -> Fidelity:
     """What the cause events' words name against what ``scenario`` shows (rules only).
-    ``robot``: the domain's word for the robot (its words name no asset); ``own``: the assets of
+    ``robot``: the domain's words for the robot (they name no asset); ``own``: the assets of
     the robot's own task; ``trace``: the run, whose recorded states count too (a light that
     starts red and turns green shows green)."""
     cast = [e for e in scenario.entities if e.kind != "robot" and e.asset not in own
@@ -53,8 +54,9 @@ def check_rules(scenario: Scenario, db: AssetDatabase, *, robot: str = "",
     shown = [_shown(e) for e in cast]
     causes = scenario.causal_graph[:-1] or scenario.causal_graph
     if not cast:
+        word = robot if isinstance(robot, str) else (robot[0] if robot else "")
         return Fidelity(status="unfaithful", reason="the scenario shows no entity of its cause, only the "
-                        f"{robot or 'robot'} and its task's own objects", named=[], shown=shown)
+                        f"{word or 'robot'} and its task's own objects", named=[], shown=shown)
     named: list[str] = []
     missing: list[str] = []
     wrong: list[str] = []
