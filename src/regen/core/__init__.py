@@ -1,6 +1,6 @@
 """Typed values that cross stage boundaries: behavior, graph, scenario, trace, verdict."""
 
-from regen.core.behavior import Behavior
+from regen.core.behavior import Behavior, BehaviorParams
 from regen.core.graph import CausePath, Decision, Edge, Node, PathEntity, ScenarioGraph
 from regen.core.scenario import (
     FSM,
@@ -20,6 +20,7 @@ __all__ = [
     "AbstractState",
     "ActorTrack",
     "Behavior",
+    "BehaviorParams",
     "CausePath",
     "Decision",
     "Edge",

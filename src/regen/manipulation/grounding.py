@@ -45,6 +45,7 @@ from regen.manipulation.placement import (
     solve_placement,
     structural_problems,
 )
+from regen.manipulation.setting import ManipulationParams
 from regen.manipulation.urdf import AABB, furniture
 from regen.templates import environment
 
@@ -141,7 +142,7 @@ def ground_path(path: CausePath, llm: object | None = None, *, seed: int = 0, re
     """
     if path.behavior.domain != "manipulation":
         raise ConfigError(f"the path's behavior is a {path.behavior.domain} behavior, not manipulation")
-    behavior = resolve(path.behavior.reward, path.behavior.text)
+    behavior = resolve(ManipulationParams.of(path.behavior).reward, path.behavior.text)
     db = manipulation_database()
     fname = f"{behavior.furniture}1"
     relaxations: list[str] = []  # placement changes: skipped or dropped objects, relaxed relations

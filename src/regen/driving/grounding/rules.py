@@ -31,6 +31,7 @@ from regen.driving.world.locations import LOCATIONS, Location, location_from_tex
 from regen.driving.world.maps import geometry
 from regen.driving.world.plan import ActorPlan
 from regen.driving.world.properties import state_schedules
+from regen.driving.world.setting import DrivingParams
 from regen.errors import ConfigError, GroundingError, UngroundableError
 
 log = logging.getLogger(__name__)
@@ -75,7 +76,7 @@ def _one(values: list[str], what: str, entity: str) -> str | None:
 
 def _template(path: CausePath) -> EgoTemplate:
     try:
-        return template_for(path.behavior.text, path.behavior.ego_template)
+        return template_for(path.behavior.text, DrivingParams.of(path.behavior).ego_template)
     except ConfigError as exc:
         raise GroundingError(str(exc)) from None
 
