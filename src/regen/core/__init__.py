@@ -11,6 +11,7 @@ from regen.core.scenario import (
     SolverReport,
     Stage,
     StateRef,
+    WorldSettings,
 )
 from regen.core.trace import ActorTrack, Trace
 from regen.core.verdict import Verdict
@@ -35,4 +36,5 @@ __all__ = [
     "StateRef",
     "Trace",
     "Verdict",
+    "WorldSettings",
 ]

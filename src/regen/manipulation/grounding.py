@@ -45,7 +45,7 @@ from regen.manipulation.placement import (
     solve_placement,
     structural_problems,
 )
-from regen.manipulation.setting import ManipulationParams
+from regen.manipulation.setting import ManipulationParams, ManipulationWorld
 from regen.manipulation.urdf import AABB, furniture
 from regen.templates import environment
 
@@ -336,8 +336,8 @@ def _scenario(path, behavior: BehaviorDef, fname: str, item_name, item_asset, it
         return Scenario(id=f"manip-{behavior.id}-{path.key}-s{seed}", domain="manipulation",
                         behavior=path.behavior, causal_graph=list(path.events), narrative=narrative,
                         entities=entities, fsm=fsm, parameters=params,
-                        world={"behavior": behavior.id, "duration": DURATION, "seed": seed,
-                               "simulator": "pybullet"},
+                        world=ManipulationWorld(behavior=behavior.id, duration=DURATION, seed=seed,
+                                                simulator="pybullet").as_world(),
                         solver=solver, fallbacks=fallbacks)
     except ValueError as exc:
         raise GroundingError(f"the grounded scenario is inconsistent: {exc}") from exc

@@ -1,5 +1,6 @@
-"""What a manipulation behavior is set up with: its parameters (``Behavior.params``: its reward
-function), typed.
+"""What a manipulation behavior and a manipulation scenario are set up with: the behavior's
+parameters (``Behavior.params``: its reward function) and the scenario's world settings
+(``Scenario.world``: the task, the time cap, the seed, the simulator), typed.
 """
 
 from __future__ import annotations
@@ -7,6 +8,7 @@ from __future__ import annotations
 from pydantic import Field
 
 from regen.core.behavior import BehaviorParams
+from regen.core.scenario import WorldSettings
 
 
 class ManipulationParams(BehaviorParams):
@@ -16,4 +18,14 @@ class ManipulationParams(BehaviorParams):
     reward: str | None = Field(default=None, description="Id of a reward function")
 
 
-__all__ = ["ManipulationParams"]
+class ManipulationWorld(WorldSettings):
+    """``Scenario.world`` of a manipulation scenario. Keys are written in field order, unset ones
+    (None) left out; keys of other writers are kept."""
+
+    behavior: str = ""  # the task's id (regen.manipulation.behaviors); empty: none named
+    duration: float = 12.0  # [s] simulated time cap of one rollout
+    seed: int = 0
+    simulator: str | None = None  # 'pybullet'
+
+
+__all__ = ["ManipulationParams", "ManipulationWorld"]
