@@ -60,6 +60,10 @@ class Wording:
     #: world; expansion rejects such causes after the judge (``by="rule"``), unless the user
     #: insisted on them. Searched with ``re.search``; the first match is quoted in the reason.
     mechanics: tuple[str, ...] = ROBOT_ORDERS
+    #: Words of the domain that carry no meaning when telling near-duplicate texts apart (the
+    #: words for the robot, say), on top of the shared English ones (``regen.expand.dedupe``).
+    #: Lower case, one word each.
+    stop_words: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -76,6 +76,8 @@ class DrivingBackend(DomainBackend):
             r"(?:a|an)\s+(?:sudden\s+)?(?:brake|engine|mechanical|software|steering|technical)\s+"
             r"(?:failure|fault|malfunction|problem)\b",
         ),
+        # the ego's own words carry no meaning when telling causes apart
+        stop_words=("ego", "vehicle"),
     )
     report_hints = ReportHints(animation="bird's-eye animation of the run",
                                keyframes="key frames at the start, at each stage and at the end "
