@@ -37,7 +37,7 @@ CHAINS = [
 
 
 def _path(tid: str, cause: str, ents) -> CausePath:
-    return CausePath(behavior=Behavior(text=f"ego: {tid}", domain="driving", ego_template=tid),
+    return CausePath(behavior=Behavior(text=f"ego: {tid}", domain="driving", params={"ego_template": tid}),
                      events=[cause, f"ego {tid}"],
                      entities=[PathEntity(asset=a, event=cause, properties=p) for a, p in ents])
 

@@ -28,7 +28,7 @@ def main() -> None:
     for depth in args.depths:
         llm = LLM(args.llm, cache=None)
         t0 = time.perf_counter()
-        g = expand(Behavior(text=text, domain=args.domain, **extra), llm,
+        g = expand(Behavior(text=text, domain=args.domain, params=extra), llm,
                    limits=Limits(max_depth=depth, max_nodes=12, max_causes=args.causes))
         wall = time.perf_counter() - t0
         t = llm.stats.total

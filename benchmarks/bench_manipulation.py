@@ -57,7 +57,7 @@ def main() -> None:
     for bid, contexts in CONTEXTS.items():
         b = BEHAVIORS[bid]
         for seed, (cause, assets) in enumerate(contexts[: args.contexts]):
-            path = CausePath(behavior=Behavior(text=b.text, domain="manipulation", reward=bid),
+            path = CausePath(behavior=Behavior(text=b.text, domain="manipulation", params={"reward": bid}),
                              events=[cause, b.text],
                              entities=[PathEntity(asset=a, event=cause) for a in assets])
             out = Path(tempfile.mkdtemp(prefix=f"regen-{bid}-"))

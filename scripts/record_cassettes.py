@@ -114,7 +114,7 @@ def ground_paths() -> dict:
 
     out = {}
     for key, (template, text, cause, asset, props) in GROUND_PATHS.items():
-        behavior = Behavior(text=text, domain="driving", ego_template=template)
+        behavior = Behavior(text=text, domain="driving", params={"ego_template": template})
         out[key] = CausePath(behavior=behavior, events=[cause, text],
                              entities=[PathEntity(asset=asset, event=cause, properties=props)])
     return out

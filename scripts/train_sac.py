@@ -36,7 +36,7 @@ def main() -> None:
           f"{' (cached policy)' if info['cached'] else ''}")
     wins = 0
     for i, (events, assets) in enumerate(CONTEXTS):
-        path = CausePath(behavior=Behavior(text=events[-1], domain="manipulation", reward=args.behavior),
+        path = CausePath(behavior=Behavior(text=events[-1], domain="manipulation", params={"reward": args.behavior}),
                          events=events, entities=[PathEntity(asset=a, event=events[0]) for a in assets])
         scenario = ground_path(path, seed=i)
         t0 = time.perf_counter()

@@ -18,6 +18,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
+from regen import domains
 from regen.errors import RegenError
 
 F = TypeVar("F", bound=Callable[..., Any])
@@ -28,6 +29,8 @@ model_app = typer.Typer(no_args_is_help=True, help="The offline model: status, p
 app.add_typer(model_app, name="model")
 
 console = Console()
+# the registered domains (regen.domains), as --help lists them
+DOMAIN_HELP = " or ".join(domains.names())
 err_console = Console(stderr=True, soft_wrap=True)
 
 
@@ -75,7 +78,7 @@ def _root(verbose: bool = typer.Option(False, "--verbose", "-v", help="Log detai
 
 @app.command("assets")
 @friendly
-def assets_cmd(domain: str = typer.Argument(..., help="A domain (driving, manipulation) or a database JSON file"),
+def assets_cmd(domain: str = typer.Argument(..., help=f"A domain ({', '.join(domains.names())}) or a database JSON file"),
                as_json: bool = typer.Option(False, "--json", help="Print the database as JSON.")) -> None:
     """Show what a simulator's asset database can simulate."""
     from regen.assets.database import database_of
@@ -97,7 +100,7 @@ def assets_cmd(domain: str = typer.Argument(..., help="A domain (driving, manipu
 
 @app.command("predicates")
 @friendly
-def predicates_cmd(domain: str = typer.Argument(None, help="A domain, e.g. driving (default: all)")) -> None:
+def predicates_cmd(domain: str = typer.Argument(None, help=f"A domain ({', '.join(domains.names())}; default: all)")) -> None:
     """List the predicate library that abstract states are built from."""
     from regen.verify import list_predicates
 
@@ -180,7 +183,7 @@ LLM_TIMEOUT_HELP = ("Seconds to wait for one request to a remote model before re
 @friendly
 def expand_cmd(
     behavior: str = typer.Argument(..., help="The robot behavior, e.g. 'the ego-vehicle stops abruptly'"),
-    domain: str = typer.Option(..., "--domain", "-d", help="driving or manipulation"),
+    domain: str = typer.Option(..., "--domain", "-d", help=DOMAIN_HELP),
     out: str = typer.Option(..., "--out", "-o", help="Folder for graph.json, graph.png, graph.html"),
     llm: str = typer.Option("local", "--llm", help=LLM_HELP),
     depth: int = typer.Option(_LIMITS.max_depth, "--depth", min=1, max=6, help="Event layers behind the behavior"),
@@ -251,7 +254,7 @@ app.add_typer(runs_app, name="runs")
 @friendly
 def generate_cmd(
     behavior: str = typer.Argument(..., help="The robot behavior, e.g. 'the ego-vehicle stops abruptly'"),
-    domain: str = typer.Option(..., "--domain", "-d", help="driving or manipulation"),
+    domain: str = typer.Option(..., "--domain", "-d", help=DOMAIN_HELP),
     out: str = typer.Option(..., "--out", "-o", help="Run folder (rerun the same command to resume)"),
     llm: str = typer.Option("local", "--llm", help=LLM_HELP),
     replay: bool = typer.Option(False, "--replay", help="Forbid model calls: cached answers only"),
@@ -405,7 +408,7 @@ _mount_eval()
 def _mount_test() -> None:
     from regen.harness.cli import test_command
 
-    app.command("test", help="Run a driving policy through a run's verified scenarios: pass/fail, "
+    app.command("test", help="Run a policy through a run's verified scenarios: pass/fail, "
                              "collisions, tests.json and junit.xml.")(test_command)
 
 

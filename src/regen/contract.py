@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
 
+from regen.core.behavior import BehaviorParams
+
 if TYPE_CHECKING:
     from regen.assets.database import AssetDatabase
     from regen.core.behavior import Behavior
@@ -66,6 +68,10 @@ class Wording:
     #: vehicle is moving"): they name no asset of the database. A phrase starting with 'the'
     #: still names another one when a place follows ('the vehicle ahead').
     robot_names: tuple[str, ...] = ()
+    #: Words of the domain that carry no meaning when telling near-duplicate texts apart (the
+    #: words for the robot, say), on top of the shared English ones (``regen.expand.dedupe``).
+    #: Lower case, one word each.
+    stop_words: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -98,6 +104,9 @@ class DomainBackend(ABC):
     database_resource: ClassVar[tuple[str, str]]
     #: The domain's words in the shared prompts.
     wording: ClassVar[Wording]
+    #: The model of the domain's behavior parameters (``Behavior.params``), unknown keys refused;
+    #: the base model takes none.
+    params_model: ClassVar[type[BehaviorParams]] = BehaviorParams
     #: Module that registers the domain's predicates when imported (None: shared ones only).
     predicates_module: ClassVar[str | None] = None
     #: Labeled edge-construction examples shipped with the domain (package, resource), if any.
@@ -115,11 +124,16 @@ class DomainBackend(ABC):
         package, resource = self.database_resource
         return load_packaged_database(package, resource)
 
+    def params(self, behavior: Behavior) -> BehaviorParams:
+        """The behavior's parameters as :attr:`params_model`; :class:`ConfigError` naming a key
+        the domain does not take or a bad value."""
+        return self.params_model.of(behavior)
+
     def check_behavior(self, behavior: Behavior) -> None:
         """Raise :class:`ConfigError` (saying what to do) when the behavior cannot run in this
-        domain, before any model call is spent: an unknown ego template or reward, say.
-        Default: every behavior of the domain is accepted."""
-        return None
+        domain, before any model call is spent: a parameter of another domain, or one naming
+        something the domain does not have, say. Default: the parameters fit :attr:`params_model`."""
+        self.params(behavior)
 
     def property_choices(self, asset: str, behavior: Behavior | None = None
                          ) -> tuple[str | None, dict[str | None, dict[str, list[str]]]] | None:

@@ -28,7 +28,7 @@ from regen.errors import GraphCycleError, GraphError
 
 
 def _behavior() -> Behavior:
-    return Behavior(text="the ego-vehicle stops abruptly", domain="driving", ego_template="stop_abruptly")
+    return Behavior(text="the ego-vehicle stops abruptly", domain="driving", params={"ego_template": "stop_abruptly"})
 
 
 def _graph() -> ScenarioGraph:

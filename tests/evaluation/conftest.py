@@ -47,7 +47,7 @@ def fake_encoder():
 
 
 BEHAVIOR = Behavior(text="the ego-vehicle stops abruptly", domain="driving",
-                    ego_template="stop_abruptly")
+                    params={"ego_template": "stop_abruptly"})
 
 
 def make_scenario(sid: str, causes: list[str], narrative: str,

@@ -32,7 +32,7 @@ CHILD = "a child runs across the road"
 
 def _expand(domain: str, model: ScriptedModel, **kw) -> ScenarioGraph:
     text = {"driving": STOP, "manipulation": DOOR}[domain]
-    behavior = Behavior(text=text, domain=domain, **({"reward": "open_door"} if domain == "manipulation" else {}))
+    behavior = Behavior(text=text, domain=domain, params={"reward": "open_door"} if domain == "manipulation" else {})
     limits = kw.pop("limits", Limits(max_depth=1, max_causes=6, max_entities=3))
     return expand(behavior, LLM(FunctionProvider(model)), limits=limits, **kw)
 

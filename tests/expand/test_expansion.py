@@ -177,7 +177,7 @@ def test_manipulation_uses_the_same_code() -> None:
                           entities={"the pet wants to come in": ["pet", "door"]},
                           values={"location": ["outside the door", "on the table"]},
                           choose={"location": ["outside the door"], "articulation": ["closed"]})
-    g = expand(Behavior(text=text, domain="manipulation", reward="open_door"), LLM(FunctionProvider(model)),
+    g = expand(Behavior(text=text, domain="manipulation", params={"reward": "open_door"}), LLM(FunctionProvider(model)),
                limits=Limits(max_depth=1))
     (p,) = g.paths()
     assert {e.asset for e in p.entities} == {"pet"}  # the door is the robot's own task, no cause

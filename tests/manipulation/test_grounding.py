@@ -18,7 +18,7 @@ pytest.importorskip("ortools")
 
 
 def _path(reward: str, text: str, events: list[str], assets: list[str]) -> CausePath:
-    return CausePath(behavior=Behavior(text=text, domain="manipulation", reward=reward),
+    return CausePath(behavior=Behavior(text=text, domain="manipulation", params={"reward": reward}),
                      events=[*events, text], entities=[PathEntity(asset=a, event=events[0]) for a in assets])
 
 

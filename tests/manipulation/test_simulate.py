@@ -32,7 +32,7 @@ CONTEXTS = {
 def _run(bid: str, events: list[str], assets: list[str], seed: int, folder):
     """The main job's stages on one hand-written manipulation chain (rule-based grounding)."""
     b = BEHAVIORS[bid]
-    path = CausePath(behavior=Behavior(text=b.text, domain="manipulation", reward=bid),
+    path = CausePath(behavior=Behavior(text=b.text, domain="manipulation", params={"reward": bid}),
                      events=[*events, b.text], entities=[PathEntity(asset=a, event=events[0]) for a in assets])
     out = run_path(path, folder, seed=seed, pictures=False)
     return out.scenario(), out.trace(), out.verdict
@@ -69,7 +69,7 @@ def test_door_angle_reached_and_pet_outside_in_three_contexts(tmp_path):
 def test_failed_behavior_gives_a_verdict_with_the_stage(tmp_path):
     # a window that starts closed cannot be 'closed by the robot' past stage 1 (initial open)
     b = BEHAVIORS["close_window"]
-    path = CausePath(behavior=Behavior(text=b.text, domain="manipulation", reward=b.id),
+    path = CausePath(behavior=Behavior(text=b.text, domain="manipulation", params={"reward": b.id}),
                      events=["rain", b.text], entities=[])
 
     class ClosedWindow(ManipulationBackend):

@@ -35,7 +35,7 @@ def make_run(tmp_path: Path) -> RunBuilder:
         counter["n"] += 1
         run = tmp_path / f"run{counter['n']}"
         (run / "scenarios").mkdir(parents=True)
-        behavior = Behavior(text=behavior_text, domain="driving", ego_template="stop_abruptly")
+        behavior = Behavior(text=behavior_text, domain="driving", params={"ego_template": "stop_abruptly"})
         folders = []
         for i, spec in enumerate(specs or [], start=1):
             name = spec.get("folder", f"{i:02d}-cause-{i}")

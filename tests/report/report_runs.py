@@ -25,7 +25,7 @@ HOSTILE = "</script><script>alert(1)</script> \"q\" 'a' & <b>bold</b>"
 def make_scenario(n: int, *, narrative: str = "A car brakes ahead of the ego.",
                   agent_name: str = "car1",
                   behavior_text: str = "the ego-vehicle stops abruptly") -> Scenario:
-    behavior = Behavior(text=behavior_text, domain="driving", ego_template="stop_abruptly")
+    behavior = Behavior(text=behavior_text, domain="driving", params={"ego_template": "stop_abruptly"})
     return Scenario(
         id=f"s{n}", domain="driving", behavior=behavior,
         causal_graph=[f"cause {n}", "a car cuts in", behavior.text],

@@ -154,6 +154,20 @@ def test_run_without_run_json_takes_the_behavior_from_the_graph(make_run) -> Non
     assert len(page.find("tr", "scenario-row")) == 1  # folders on disk still count
 
 
+def test_the_behavior_parameters_are_shown_whatever_the_domain_calls_them(make_run) -> None:
+    run = make_run([{}])
+    html, _ = _page(run)
+    assert '<span class="tag">ego template: stop_abruptly</span>' in html
+    # a run.json of before Behavior.params (the parameters at the top level, nulls too)
+    data = json.loads((run / "run.json").read_text())
+    data["behavior"] = {"text": "the robot opens the door", "domain": "manipulation", "ego_template": None,
+                        "route": [{"x": 0.0, "y": 1.0, "speed": None}], "reward": "open_door"}
+    (run / "run.json").write_text(json.dumps(data))
+    html, _ = _page(run)
+    assert '<span class="tag">reward: open_door</span>' in html and "route: 1 entry" in html
+    assert "ego template" not in html
+
+
 def test_empty_folder_still_gets_a_report(tmp_path: Path) -> None:
     html, page = _page(tmp_path)
     assert "no scenarios in this run yet" in html

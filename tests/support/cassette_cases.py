@@ -9,12 +9,12 @@ from regen.expand import Limits
 EXPANSIONS = {
     "expand_driving": (Behavior(text="the ego-vehicle stops abruptly while driving forward", domain="driving"),
                        Limits(max_depth=1, max_causes=3, max_entities=3)),
-    "expand_manipulation": (Behavior(text="the robot opens the door", domain="manipulation", reward="open_door"),
+    "expand_manipulation": (Behavior(text="the robot opens the door", domain="manipulation", params={"reward": "open_door"}),
                             Limits(max_depth=1, max_causes=3, max_entities=3)),
     "expand_manipulation_faucet": (Behavior(text="the robot turns on the faucet", domain="manipulation",
-                                            reward="adjust_faucet"),
+                                            params={"reward": "adjust_faucet"}),
                                    Limits(max_depth=1, max_causes=3, max_entities=3)),
     "expand_manipulation_lamp": (Behavior(text="the robot turns on the lamp", domain="manipulation",
-                                          reward="turn_on_lamp"),
+                                          params={"reward": "turn_on_lamp"}),
                                  Limits(max_depth=1, max_causes=3, max_entities=3)),
 }

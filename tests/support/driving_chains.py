@@ -16,7 +16,7 @@ TEXT = {
 
 def chain(template: str, cause: str, *entities: tuple[str, dict[str, list[str]]]) -> CausePath:
     events = [cause, TEXT[template]]
-    return CausePath(behavior=Behavior(text=TEXT[template], domain="driving", ego_template=template),
+    return CausePath(behavior=Behavior(text=TEXT[template], domain="driving", params={"ego_template": template}),
                      events=events,
                      entities=[PathEntity(asset=a, event=cause, properties=p) for a, p in entities])
 

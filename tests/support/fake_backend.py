@@ -26,6 +26,8 @@ class FakeBackend(DomainBackend):
     database_resource = DrivingBackend.database_resource
     wording = DrivingBackend.wording
     predicates_module = DrivingBackend.predicates_module
+    params_model = DrivingBackend.params_model
+    params = DrivingBackend.params
     check_behavior = DrivingBackend.check_behavior
     settings_key = DrivingBackend.settings_key
     simulated: list[str] = []

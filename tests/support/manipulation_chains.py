@@ -11,7 +11,7 @@ def door_scenario(choices: dict[str, tuple[str, str]], assets: list[str], seed: 
     from regen.manipulation.grounding import ground_path
 
     b = BEHAVIORS["open_door"]
-    path = CausePath(behavior=Behavior(text=b.text, domain="manipulation", reward=b.id),
+    path = CausePath(behavior=Behavior(text=b.text, domain="manipulation", params={"reward": b.id}),
                      events=["the pet wants to go out", b.text],
                      entities=[PathEntity(asset=a, event="the pet wants to go out") for a in assets])
     sc = ground_path(path, None, seed=seed, relax=False, choices=choices)

@@ -1,6 +1,6 @@
 """Typed values that cross stage boundaries: behavior, graph, scenario, trace, verdict."""
 
-from regen.core.behavior import Behavior
+from regen.core.behavior import Behavior, BehaviorParams
 from regen.core.graph import CausePath, Decision, Edge, Node, PathEntity, ScenarioGraph
 from regen.core.scenario import (
     FSM,
@@ -11,6 +11,7 @@ from regen.core.scenario import (
     SolverReport,
     Stage,
     StateRef,
+    WorldSettings,
 )
 from regen.core.trace import ActorTrack, Trace
 from regen.core.verdict import Verdict
@@ -20,6 +21,7 @@ __all__ = [
     "AbstractState",
     "ActorTrack",
     "Behavior",
+    "BehaviorParams",
     "CausePath",
     "Decision",
     "Edge",
@@ -34,4 +36,5 @@ __all__ = [
     "StateRef",
     "Trace",
     "Verdict",
+    "WorldSettings",
 ]

@@ -13,6 +13,7 @@ from typing import Literal
 
 import networkx as nx
 from pydantic import Field, model_validator
+from pydantic_core import to_json
 
 from regen.core.base import Model
 from regen.core.behavior import Behavior
@@ -93,9 +94,12 @@ class CausePath(Model):
 
     @property
     def key(self) -> str:
-        """A stable short id for the path (used as the scenario folder name suffix)."""
-        text = self.model_dump_json()
-        return hashlib.sha256(text.encode()).hexdigest()[:10]
+        """A stable short id for the path (used as the scenario folder name suffix). The behavior
+        is hashed in its layout of before ``Behavior.params`` (:meth:`Behavior.hash_layout`), so
+        the keys, and the scenario ids, folders and seeds made from them, are the same as then."""
+        data = self.model_dump(mode="json")
+        data["behavior"] = self.behavior.hash_layout()
+        return hashlib.sha256(to_json(data)).hexdigest()[:10]
 
 
 def node_id(kind: str, label: str, parent: str | None = None) -> str:

@@ -7,9 +7,9 @@ it writes is ever executed.
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Any, Literal, TypeVar
 
-from pydantic import Field, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from regen.core.base import Model
 from regen.core.behavior import Behavior
@@ -154,3 +154,43 @@ class Scenario(Model):
             if e.name == name:
                 return e
         raise KeyError(name)
+
+
+W = TypeVar("W", bound="WorldSettings")
+
+
+class WorldSettings(BaseModel):
+    """Base of a domain's typed view of ``Scenario.world``: the keys the domain reads and writes
+    as fields with their defaults; keys it does not know are kept as they are."""
+
+    model_config = ConfigDict(extra="allow")
+
+    @classmethod
+    def of(cls: type[W], scenario: Scenario, *, required: tuple[str, ...] = ()) -> W:
+        """The scenario's world settings; :class:`ConfigError` naming the scenario and the bad key
+        (or a ``required`` one that is unset)."""
+        from regen.errors import ConfigError
+
+        try:
+            world = cls.model_validate(scenario.world)
+        except ValidationError as exc:
+            bad = []
+            for e in exc.errors():
+                key = ".".join(str(x) for x in e["loc"])
+                if e["type"] == "missing":
+                    bad.append(f"world.{key} is missing")
+                else:
+                    bad.append(f"world.{key} = {e.get('input')!r} is not valid ({e['msg']})")
+            raise ConfigError(f"scenario {scenario.id!r}: " + "; ".join(bad)) from None
+        missing = [k for k in required if getattr(world, k, None) is None]
+        if missing:
+            raise ConfigError(f"scenario {scenario.id!r}: " + "; ".join(f"world.{k} is missing" for k in missing))
+        return world
+
+    def updated(self: W, **changes: Any) -> W:
+        """A copy with ``changes`` applied and checked (a key set to None is left out)."""
+        return type(self).model_validate({**self.model_dump(exclude_none=True), **changes})
+
+    def as_world(self) -> dict[str, Any]:
+        """As ``Scenario.world``: fields in their order (unset ones left out), then the other keys."""
+        return self.model_dump(exclude_none=True)

@@ -21,6 +21,7 @@ from regen.core.verdict import Verdict
 from regen.driving.assets import RESOURCE
 from regen.driving.grounding.rules import ground_rule_based
 from regen.driving.world.egos import EGO_TEMPLATES, template_for
+from regen.driving.world.setting import DrivingParams
 from regen.errors import ConfigError, GroundingError
 
 if TYPE_CHECKING:
@@ -34,6 +35,7 @@ class DrivingBackend(DomainBackend):
     database_resource = RESOURCE
     gym_envs = {"regen/Driving-v0": "regen.driving.gym.env:DrivingEnv"}
     predicates_module = "regen.driving.verify.predicates"
+    params_model = DrivingParams
     edge_examples = ("regen.driving", "data/edges_example.jsonl")
     wording = Wording(
         expert="driving scenarios and traffic simulation",
@@ -82,6 +84,8 @@ class DrivingBackend(DomainBackend):
             r"(?:a|an)\s+(?:sudden\s+)?(?:brake|engine|mechanical|software|steering|technical)\s+"
             r"(?:failure|fault|malfunction|problem)\b",
         ),
+        # the ego's own words carry no meaning when telling causes apart
+        stop_words=("ego", "vehicle"),
     )
     report_hints = ReportHints(animation="bird's-eye animation of the run",
                                keyframes="key frames at the start, at each stage and at the end "
@@ -89,13 +93,16 @@ class DrivingBackend(DomainBackend):
                                robot="ego-vehicle")
 
     def check_behavior(self, behavior: Behavior) -> None:
-        if behavior.reward:
+        if behavior.params.get("reward"):
             raise ConfigError("--reward is for manipulation behaviors; driving behaviors take --ego "
                               f"(one of: {', '.join(EGO_TEMPLATES)})")
-        template_for(behavior.text, behavior.ego_template)
+        template_for(behavior.text, self.params(behavior).ego_template)
+
+    def params(self, behavior: Behavior) -> DrivingParams:
+        return DrivingParams.of(behavior)
 
     def settings_key(self, behavior: Behavior) -> dict[str, str | None]:
-        return {"ego_template": template_for(behavior.text, behavior.ego_template).id}
+        return {"ego_template": template_for(behavior.text, self.params(behavior).ego_template).id}
 
     def property_choices(self, asset: str, behavior: Behavior | None = None
                          ) -> tuple[str | None, dict[str | None, dict[str, list[str]]]] | None:

@@ -139,8 +139,9 @@ def restates_mechanics(domain: Domain, cause: str) -> str | None:
     return None
 
 
-def _match(name: str, options: list[str]) -> str | None:
-    """The option a model-written name refers to (exact, normalized, or near-duplicate)."""
+def _match(name: str, options: list[str], stop: tuple[str, ...] = ()) -> str | None:
+    """The option a model-written name refers to (exact, normalized, or near-duplicate;
+    ``stop``: the domain's stop words)."""
     if name in options:
         return name
     n = normalize(name).replace(" ", "_")
@@ -148,7 +149,7 @@ def _match(name: str, options: list[str]) -> str | None:
         if normalize(o).replace(" ", "_") == n:
             return o
     for o in options:
-        if similar(name, o, threshold=0.9):
+        if similar(name, o, threshold=0.9, stop=stop):
             return o
     return None
 
@@ -229,7 +230,7 @@ def select_entities(llm: LLM, db: AssetDatabase, domain: Domain, chain: list[str
     own_words = {w for w in name_words(robot) if db.resolve(w) is None}
     picked: dict[str, str] = {}
     for ch in got.value.entities:
-        target, how = _match(ch.name, options), None
+        target, how = _match(ch.name, options, domain.wording.stop_words), None
         if target is not None and normalize(ch.name).replace(" ", "_") != normalize(target).replace(" ", "_"):
             how = ("rule", f"read '{ch.name}' as asset '{target}' (nearly the same name)")
         if target is None and (target := db.resolve(ch.name)) is not None:

@@ -104,7 +104,7 @@ class Expander:
         # insisted-on causes first, so a model proposal that duplicates one merges into the user's words
         everything = [*forced, *proposed, *user]
         existing = [n.label for n in graph.nodes.values() if n.kind == "event"]
-        fresh, merged = merge(everything, existing)
+        fresh, merged = merge(everything, existing, stop=self._domain(graph).wording.stop_words)
         judged = edges.judge_events(self.llm, self._domain(graph), chain, fresh) if fresh else None
         return nid, proposed, pid, [*forced, *user], fresh, merged, judged, list(forced)
 

@@ -14,6 +14,7 @@ from regen.core.verdict import Verdict
 from regen.errors import ConfigError, SimulationError
 from regen.manipulation.assets import RESOURCE
 from regen.manipulation.behaviors import BEHAVIORS, resolve
+from regen.manipulation.setting import ManipulationParams
 
 
 class ManipulationBackend(DomainBackend):
@@ -23,6 +24,7 @@ class ManipulationBackend(DomainBackend):
     database_resource = RESOURCE
     gym_envs = {"regen/Manipulation-v0": "regen.manipulation.gym.env:ManipulationEnv"}
     predicates_module = "regen.manipulation.predicates"
+    params_model = ManipulationParams
     edge_examples = ("regen.manipulation", "data/edges_example.jsonl")
     wording = Wording(
         expert="household robot manipulation and home environments",
@@ -79,10 +81,13 @@ class ManipulationBackend(DomainBackend):
                                robot="robot")
 
     def check_behavior(self, behavior: Behavior) -> None:
-        if behavior.ego_template:
+        if behavior.params.get("ego_template"):
             raise ConfigError("--ego is for driving behaviors; manipulation behaviors take --reward "
                               f"(one of: {', '.join(sorted(BEHAVIORS))})")
-        resolve(behavior.reward, behavior.text)
+        resolve(self.params(behavior).reward, behavior.text)
+
+    def params(self, behavior: Behavior) -> ManipulationParams:
+        return ManipulationParams.of(behavior)
 
     def property_choices(self, asset: str, behavior: Behavior | None = None
                          ) -> tuple[str | None, dict[str | None, dict[str, list[str]]]] | None:
@@ -93,7 +98,7 @@ class ManipulationBackend(DomainBackend):
         if behavior is None:
             return None
         try:
-            task = resolve(behavior.reward, behavior.text)
+            task = resolve(self.params(behavior).reward, behavior.text)
         except ConfigError:
             return None
         if task.asset != asset and not set(name_words(task.asset)) <= set(name_words(asset)):
@@ -110,13 +115,13 @@ class ManipulationBackend(DomainBackend):
     def own_objects(self, behavior: Behavior) -> frozenset[str]:
         """The furniture the task acts on and the item it moves (a door, the cup it stores)."""
         try:
-            task = resolve(behavior.reward, behavior.text)
+            task = resolve(self.params(behavior).reward, behavior.text)
         except ConfigError:
             return frozenset()
         return frozenset({task.asset} | ({task.item.asset} if task.item else set()))
 
     def settings_key(self, behavior: Behavior) -> dict[str, str | None]:
-        return {"reward": resolve(behavior.reward, behavior.text).id}
+        return {"reward": resolve(self.params(behavior).reward, behavior.text).id}
 
     def ground(self, path: CausePath, llm, *, seed: int = 0) -> Scenario:
         from regen.manipulation.grounding import ground_path

@@ -164,12 +164,12 @@ def match_behavior(text: str) -> BehaviorDef:
             scores[b.id] = score
     if not scores:
         raise ConfigError(f"no manipulation behavior matches {text!r}; name one with "
-                          f"Behavior(reward=...), one of: {', '.join(sorted(BEHAVIORS))}")
+                          f"--reward (the reward parameter), one of: {', '.join(sorted(BEHAVIORS))}")
     best = max(scores.values())
     winners = sorted(k for k, v in scores.items() if v == best)
     if len(winners) > 1:
         raise ConfigError(f"the text {text!r} matches several behaviors equally ({', '.join(winners)}); "
-                          "set Behavior(reward=...) to choose")
+                          "give --reward (the reward parameter) to choose")
     return BEHAVIORS[winners[0]]
 
 

@@ -45,6 +45,7 @@ from regen.manipulation.placement import (
     solve_placement,
     structural_problems,
 )
+from regen.manipulation.setting import ManipulationParams, ManipulationWorld
 from regen.manipulation.urdf import AABB, furniture
 from regen.templates import environment
 
@@ -141,7 +142,7 @@ def ground_path(path: CausePath, llm: object | None = None, *, seed: int = 0, re
     """
     if path.behavior.domain != "manipulation":
         raise ConfigError(f"the path's behavior is a {path.behavior.domain} behavior, not manipulation")
-    behavior = resolve(path.behavior.reward, path.behavior.text)
+    behavior = resolve(ManipulationParams.of(path.behavior).reward, path.behavior.text)
     db = manipulation_database()
     fname = f"{behavior.furniture}1"
     relaxations: list[str] = []  # placement changes: skipped or dropped objects, relaxed relations
@@ -335,8 +336,8 @@ def _scenario(path, behavior: BehaviorDef, fname: str, item_name, item_asset, it
         return Scenario(id=f"manip-{behavior.id}-{path.key}-s{seed}", domain="manipulation",
                         behavior=path.behavior, causal_graph=list(path.events), narrative=narrative,
                         entities=entities, fsm=fsm, parameters=params,
-                        world={"behavior": behavior.id, "duration": DURATION, "seed": seed,
-                               "simulator": "pybullet"},
+                        world=ManipulationWorld(behavior=behavior.id, duration=DURATION, seed=seed,
+                                                simulator="pybullet").as_world(),
                         solver=solver, fallbacks=fallbacks)
     except ValueError as exc:
         raise GroundingError(f"the grounded scenario is inconsistent: {exc}") from exc

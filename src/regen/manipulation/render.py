@@ -18,6 +18,7 @@ from regen.core.scenario import Scenario
 from regen.core.trace import Trace
 from regen.core.verdict import Verdict
 from regen.manipulation.scene import ARM_JOINTS, FINGER_JOINTS, Scene
+from regen.manipulation.setting import ManipulationWorld
 from regen.manipulation.simulate import layout_from_scenario
 
 WIDTH, HEIGHT = 320, 240  # [px]
@@ -93,6 +94,7 @@ def _label_text(scenario: Scenario, name: str) -> str:
 def render_frames(scenario: Scenario, trace: Trace, indices: list[int]) -> list[Image.Image]:
     """Images of the trace at the given sample indices, with object labels."""
     layout, _ = layout_from_scenario(scenario)
+    lamp = ManipulationWorld.of(scenario).behavior == "turn_on_lamp"
     frames: list[Image.Image] = []
     with Scene(layout) as scene:
         p, c = scene.p, scene.client
@@ -107,7 +109,7 @@ def render_frames(scenario: Scenario, trace: Trace, indices: list[int]) -> list[
                              _extent(scene))
         for i in indices:
             _pose_at(scene, trace, i, offsets)
-            if scenario.world.get("behavior") in ("turn_on_lamp",):
+            if lamp:
                 on = any(v == "on" for a in trace.actors.values() for v in [a.states.get("power", [None] * (i + 1))[i]])
                 for b in scene.bodies.values():
                     if b.asset == "lamp":

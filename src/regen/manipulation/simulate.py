@@ -2,7 +2,8 @@
 
 Scenario conventions (written by :mod:`regen.manipulation.grounding`):
 
-- ``world['behavior']``: behavior id; ``world['duration']`` [s] caps the rollout.
+- ``world`` (:class:`~regen.manipulation.setting.ManipulationWorld`): ``behavior`` (the task's id);
+  ``duration`` [s] caps the rollout.
 - entity ``properties['role']``: ``robot``, ``target`` (the furniture the behavior acts on),
   ``item`` (the object it moves), ``support`` (the table) or ``context`` (placed objects).
 - ``parameters[name]``: ``x``, ``y`` [m] (furniture origin / object bottom centre), ``z`` [m]
@@ -30,6 +31,7 @@ from regen.core.trace import ActorTrack, Trace
 from regen.errors import SimulationError
 from regen.manipulation.behaviors import BehaviorDef, get_behavior
 from regen.manipulation.scene import DT, FurniturePlacement, ObjectPlacement, Scene, SceneLayout
+from regen.manipulation.setting import ManipulationWorld
 
 log = logging.getLogger(__name__)
 
@@ -46,7 +48,7 @@ class Roles:
 
 def layout_from_scenario(scenario: Scenario) -> tuple[SceneLayout, Roles]:
     """The physical layout a scenario describes, and which entity plays which role."""
-    behavior = get_behavior(str(scenario.world.get("behavior", "")))
+    behavior = get_behavior(ManipulationWorld.of(scenario).behavior)
     layout = SceneLayout()
     target: str | None = None
     item: str | None = None
@@ -171,7 +173,7 @@ class Recorder:
                                         height=size[2], x=xs, y=ys, z=zs, heading=heading,
                                         speed=[round(v, 4) for v in speed], states=cols)
         return Trace(dt=1.0 / RECORD_HZ, times=self.times, actors=actors,
-                     meta={"simulator": "pybullet", "behavior": str(scenario.world.get("behavior", "")),
+                     meta={"simulator": "pybullet", "behavior": ManipulationWorld.of(scenario).behavior,
                            "physics_dt": DT, "physics_steps": self.steps})
 
 

@@ -358,7 +358,7 @@ def test_a_crossing_in_the_ego_lane_shows_the_cause():
 
 def test_every_actor_of_a_path_gets_cause_states():
     two = CausePath(behavior=Behavior(text="the ego-vehicle stops abruptly", domain="driving",
-                                      ego_template="stop_abruptly"),
+                                      params={"ego_template": "stop_abruptly"}),
                     events=["a car brakes while an ambulance approaches", "the ego-vehicle stops abruptly"],
                     entities=[PathEntity(asset="sedan", event="x", properties={
                                   "behavior": ["drive_forward"], "start_location": ["ahead_same_lane"]}),

@@ -13,7 +13,7 @@ def ground():
     def make(template: str, asset: str, **properties: str):
         cause = f"a {asset} does something"
         path = CausePath(behavior=Behavior(text=f"the ego-vehicle does {template}", domain="driving",
-                                           ego_template=template),
+                                           params={"ego_template": template}),
                          events=[cause, f"the ego-vehicle does {template}"],
                          entities=[PathEntity(asset=asset, event=cause,
                                               properties={k: [v] for k, v in properties.items()})])

@@ -11,7 +11,7 @@ from regen.driving.primitives.cross_the_road import RIDE_CROSS_SPEEDS
 
 STOP = "the ego-vehicle stops abruptly while driving forward"
 CAUSE = "a cyclist crosses the road in front of the ego-vehicle"
-PATH = CausePath(behavior=Behavior(text=STOP, domain="driving", ego_template="stop_abruptly"),
+PATH = CausePath(behavior=Behavior(text=STOP, domain="driving", params={"ego_template": "stop_abruptly"}),
                  events=[CAUSE, STOP],
                  entities=[PathEntity(asset="bicycle", event=CAUSE,
                                       properties={"behavior": ["cross_the_road"],

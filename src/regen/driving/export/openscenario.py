@@ -26,6 +26,7 @@ import numpy as np
 from regen.core.io import atomic_write_bytes
 from regen.core.scenario import Scenario
 from regen.core.trace import ActorTrack, Trace
+from regen.driving.world.setting import DrivingWorld
 from regen.errors import ConfigError, DependencyNotInstalled, RegenError
 
 log = logging.getLogger(__name__)
@@ -195,7 +196,7 @@ def _map_file(scenario: Scenario, trace: Trace) -> Path | None:
     raw = trace.meta.get("map_path")
     if isinstance(raw, str) and raw and Path(raw).is_file():
         return Path(raw)
-    name = trace.meta.get("map") or scenario.world.get("map")
+    name = trace.meta.get("map") or DrivingWorld.of(scenario).map
     if isinstance(name, str) and name:
         try:
             from regen.driving.world.maps import ensure_map

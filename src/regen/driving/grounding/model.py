@@ -60,6 +60,7 @@ from regen.driving.primitives import get
 from regen.driving.world.actors import RoleChoice
 from regen.driving.world.egos import EgoTemplate, template_for
 from regen.driving.world.locations import LOCATIONS, location_from_text
+from regen.driving.world.setting import DrivingParams, DrivingWorld
 from regen.errors import ConfigError, GroundingError, MalformedAnswerError
 from regen.templates import render
 from regen.verify.monitor import validate_fsm
@@ -184,16 +185,15 @@ class _Grounding:
         return "model+rules" if "model" in used else "rule-based"
 
     def finish(self, scenario: Scenario) -> Scenario:
-        world = dict(scenario.world)
-        world.update({
-            "grounder": self.grounder,
-            "model_parts": ",".join(p for p in PARTS if self.source.get(p) == "model"),
-            "rule_parts": ",".join(p for p in PARTS if self.source.get(p) != "model"),
-            "llm": self.llm.provider.id,
-            "model_calls": ",".join(self.calls),
-        })
-        if self.fallbacks:
-            world["grounding_notes"] = "; ".join(self.fallbacks)
+        notes = {"grounding_notes": "; ".join(self.fallbacks)} if self.fallbacks else {}
+        world = DrivingWorld.of(scenario).updated(
+            grounder=self.grounder,
+            model_parts=",".join(p for p in PARTS if self.source.get(p) == "model"),
+            rule_parts=",".join(p for p in PARTS if self.source.get(p) != "model"),
+            llm=self.llm.provider.id,
+            model_calls=",".join(self.calls),
+            **notes,
+        ).as_world()
         return scenario.model_copy(update={"world": world,
                                            "fallbacks": list(scenario.fallbacks) + self.fallbacks})
 
@@ -283,7 +283,7 @@ def ground_with_model(path: CausePath, llm: LLM, *, seed: int = 0,
     """
     db = db or driving_database()
     try:
-        template = template_for(path.behavior.text, path.behavior.ego_template)
+        template = template_for(path.behavior.text, DrivingParams.of(path.behavior).ego_template)
     except ConfigError as exc:
         raise GroundingError(str(exc)) from None
     defaults = path_roles(path, db)

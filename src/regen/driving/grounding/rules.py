@@ -31,6 +31,7 @@ from regen.driving.world.locations import LOCATIONS, Location, location_from_tex
 from regen.driving.world.maps import geometry
 from regen.driving.world.plan import ActorPlan
 from regen.driving.world.properties import state_schedules
+from regen.driving.world.setting import DrivingParams, DrivingWorld
 from regen.errors import ConfigError, GroundingError, UngroundableError
 
 log = logging.getLogger(__name__)
@@ -75,7 +76,7 @@ def _one(values: list[str], what: str, entity: str) -> str | None:
 
 def _template(path: CausePath) -> EgoTemplate:
     try:
-        return template_for(path.behavior.text, path.behavior.ego_template)
+        return template_for(path.behavior.text, DrivingParams.of(path.behavior).ego_template)
     except ConfigError as exc:
         raise GroundingError(str(exc)) from None
 
@@ -352,8 +353,8 @@ def build_scenario(path: CausePath, roles: list[RoleChoice], *, narrative: str, 
         fsm = rule_based_fsm(roles, template)
     else:  # an FSM written elsewhere still shows every cause before the ego's reaction
         fsm, added = with_cause_states(fsm, roles, template)
-    world = {"map": template.map, "ego_template": template.id, "duration": template.duration,
-             "dt": DT, "seed": seed, "grounder": grounder}
+    world = DrivingWorld(map=template.map, ego_template=template.id, duration=template.duration, dt=DT,
+                         seed=seed, grounder=grounder).as_world()
     params = {k: dict(v) for k, v in sol.params.items()}
     return Scenario(id=scenario_id(path, seed), domain="driving", behavior=path.behavior,
                     causal_graph=list(path.events), narrative=narrative, entities=entities,
@@ -386,8 +387,9 @@ def roles_of(scenario: Scenario) -> list[RoleChoice]:
 
 
 def template_of(scenario: Scenario) -> EgoTemplate:
-    t = template_for(scenario.behavior.text, str(scenario.world.get("ego_template")))
-    m = str(scenario.world.get("map", t.map))
+    w = DrivingWorld.of(scenario)
+    t = template_for(scenario.behavior.text, w.ego_template)
+    m = w.map or t.map
     return on_junction_map(t, m) if m != t.map else t
 
 

@@ -54,6 +54,7 @@ from regen.driving.render.roads import (
     SIDEWALK,
     View,
 )
+from regen.driving.world.setting import DrivingWorld
 
 __all__ = ["Story", "choose_view", "frame", "keyframe_steps", "palette", "story_of"]
 
@@ -127,7 +128,7 @@ def story_of(scenario: Scenario, trace: Trace, verdict: Verdict) -> Story:
     if not stages:  # a verdict without stage results: list the FSM's stages, none reached
         stages = [(k + 1, None, ", ".join(f"{c.actor}: {c.state}" for c in st.conditions))
                   for k, st in enumerate(scenario.fsm.stages)]
-    return Story(scenario.id, str(trace.meta.get("map", scenario.world.get("map", ""))), stages,
+    return Story(scenario.id, str(trace.meta.get("map", DrivingWorld.of(scenario).map or "")), stages,
                   verdict.status, verdict.first_unmet_stage, float(trace.times[-1]))
 
 

@@ -18,6 +18,7 @@ from PIL import Image, ImageDraw
 
 from regen.core.scenario import Scenario
 from regen.core.trace import Trace
+from regen.driving.world.setting import DrivingWorld
 from regen.errors import DependencyNotInstalled, RegenError
 
 log = logging.getLogger(__name__)
@@ -116,7 +117,7 @@ def _map_path(scenario: Scenario, trace: Trace) -> Path | None:
         if path.is_file():
             return path
         log.warning("map file %s recorded in the trace does not exist; trying the map name", path)
-    name = trace.meta.get("map") or scenario.world.get("map")
+    name = trace.meta.get("map") or DrivingWorld.of(scenario).map
     if not isinstance(name, str) or not name:
         return None
     try:

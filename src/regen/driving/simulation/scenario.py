@@ -9,20 +9,25 @@ from regen.core.scenario import Scenario
 from regen.driving.grounding.rules import plans_for
 from regen.driving.simulation.program import write_program
 from regen.driving.world.maps import ensure_map, geometry
+from regen.driving.world.setting import DrivingWorld
 
 
 def timing(scenario: Scenario) -> tuple[float, int, int]:
     """Step [s], step count and seed of a scenario's world."""
-    dt = float(scenario.world.get("dt", 0.1))
-    steps = int(round(float(scenario.world.get("duration", 16.0)) / dt))
-    return dt, steps, int(scenario.world.get("seed", 0))
+    w = DrivingWorld.of(scenario)
+    return w.dt, int(round(w.duration / w.dt)), w.seed
+
+
+def map_name(scenario: Scenario) -> str:
+    """The scenario's map; ConfigError when its world names none."""
+    return str(DrivingWorld.of(scenario, required=("map",)).map)
 
 
 def scenic_program(scenario: Scenario) -> str:
     """The Scenic program of a grounded scenario (the map is generated if needed)."""
     _, plans = plans_for(scenario)
     dt, steps, seed = timing(scenario)
-    return write_program(plans, map_path=str(ensure_map(str(scenario.world["map"]))), dt=dt,
+    return write_program(plans, map_path=str(ensure_map(map_name(scenario))), dt=dt,
                          max_steps=steps, narrative=scenario.narrative, seed=seed,
                          title=scenario.behavior.text)
 
@@ -33,7 +38,7 @@ def simulate_scenario(scenario: Scenario) -> SimulationOutput:
     from regen.driving.simulation.run import run_program
 
     _, plans = plans_for(scenario)
-    name = str(scenario.world["map"])
+    name = map_name(scenario)
     dt, steps, seed = timing(scenario)
     run = run_program(scenic_program(scenario), steps=steps, dt=dt, seed=seed)
     t0 = time.perf_counter()

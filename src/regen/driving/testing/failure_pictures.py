@@ -24,6 +24,7 @@ from regen.driving.render.actors import Actor, Canvas, text_font
 from regen.driving.render.frames import STAGE_FAILED, Story, frame, palette
 from regen.driving.render.roads import MAP_H, View
 from regen.driving.render.scenario import RenderOptions, scene
+from regen.driving.world.setting import DrivingWorld
 from regen.harness.pictures import FAILURE_GIF, case_folder
 
 if TYPE_CHECKING:
@@ -47,7 +48,7 @@ def story_of_case(scenario: Scenario, trace: Trace, case: CaseResult, policy: st
     else:
         status = f"{policy}: {(case.cause or case.status).replace('_', ' ')}"
     failed_stage = unmet if case.cause == "state_not_reached" else None
-    return Story(scenario.id, str(trace.meta.get("map", scenario.world.get("map", ""))), stages,
+    return Story(scenario.id, str(trace.meta.get("map", DrivingWorld.of(scenario).map or "")), stages,
                  status, failed_stage, float(trace.times[-1]))
 
 

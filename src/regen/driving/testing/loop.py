@@ -73,14 +73,14 @@ def prepare(scenario: Scenario) -> Prepared:
     from regen.driving.grounding.rules import plans_for
     from regen.driving.simulation.program import write_program
     from regen.driving.simulation.run import compile_program
-    from regen.driving.simulation.scenario import timing
+    from regen.driving.simulation.scenario import map_name, timing
     from regen.driving.world.maps import ensure_map
 
     template, plans = plans_for(scenario)
     plans = [dataclasses.replace(p, scenic_behavior="", schedule=[]) if p.name == "ego" else p
              for p in plans]
     dt, steps, seed = timing(scenario)
-    name = str(scenario.world["map"])
+    name = map_name(scenario)
     map_path = str(ensure_map(name))
     text = write_program(plans, map_path=map_path, dt=dt, max_steps=steps,
                          narrative=scenario.narrative, seed=seed, title=scenario.behavior.text)

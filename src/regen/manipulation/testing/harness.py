@@ -26,6 +26,7 @@ import numpy as np
 from regen.core.scenario import Scenario, StateRef
 from regen.core.trace import Trace
 from regen.harness.contract import Episode, Incident, Policy, PolicyHarness, TemplateRun
+from regen.manipulation.setting import ManipulationWorld
 from regen.manipulation.testing import loop, policies, variants
 
 DISPLACE_TOL = 0.05  # [m] horizontal displacement of a context object that fails the test
@@ -219,7 +220,7 @@ def _goal_mask(scenario: Scenario, trace: Trace) -> np.ndarray | None:
 
 def _time_budget(scenario: Scenario, trace: Trace) -> Incident | None:
     """The goal never held although the episode ran the whole budget."""
-    budget = float(scenario.world.get("duration", 12.0))
+    budget = ManipulationWorld.of(scenario).duration
     held = _goal_mask(scenario, trace)
     if held is None or held.any() or not trace.times or trace.times[-1] < budget - 0.1:
         return None

@@ -29,6 +29,7 @@ from regen.harness.timeout import PolicyFailure, call_with_timeout
 from regen.manipulation.behaviors import BehaviorDef
 from regen.manipulation.controller import CONTROL_EVERY, Controller
 from regen.manipulation.scene import ARM_JOINTS, EE_LINK, FINGER_JOINTS, Scene, SceneLayout
+from regen.manipulation.setting import ManipulationWorld
 from regen.manipulation.simulate import Recorder, Roles, layout_from_scenario
 from regen.manipulation.testing.types import (
     GRASP_RADIUS,
@@ -102,7 +103,7 @@ def prepare(scenario: Scenario) -> Prepared:
                     behavior.item.start == "cavity" or behavior.script == "carry") else None,
                 approach=_approach(behavior))
     return Prepared(scenario=scenario, layout=layout, roles=roles, behavior=behavior,
-                    duration=float(scenario.world.get("duration", 12.0)), context=context,
+                    duration=ManipulationWorld.of(scenario).duration, context=context,
                     living=tuple(n for n in context if assets[n] in LIVING), task=task)
 
 

@@ -6,7 +6,7 @@ method has it called at the start of every episode.
 
 **Timing.** The policy is called at :data:`CONTROL_HZ` (20 Hz, every :data:`POLICY_DT` = 0.05 s
 of simulated time, 12 PyBullet steps of 1/240 s). The episode lasts the scenario's duration
-(``world['duration']``, 12 s), or less when the policy returns ``done=True``.
+(``ManipulationWorld.duration``, 12 s), or less when the policy returns ``done=True``.
 
 **Action** (:class:`Action`): a displacement ``(dx, dy, dz)`` [m] of the end-effector set-point
 in the world frame (x away from the robot base, z up), each component clipped to

@@ -19,6 +19,7 @@ import random
 from regen.core.scenario import Scenario
 from regen.manipulation.behaviors import get_behavior
 from regen.manipulation.placement import ROOM, Request, scene_geometry, solve_placement
+from regen.manipulation.setting import ManipulationWorld
 from regen.manipulation.urdf import AABB
 
 log = logging.getLogger(__name__)
@@ -35,7 +36,7 @@ def _seed(*parts: object) -> int:
 
 def placement_requests(scenario: Scenario) -> tuple[list[Request], object]:
     """The context objects' placement requests and the scene geometry they were solved in."""
-    behavior = get_behavior(str(scenario.world.get("behavior", "")))
+    behavior = get_behavior(ManipulationWorld.of(scenario).behavior)
     target = next(e.name for e in scenario.entities if e.properties.get("role") == "target")
     item_box = None
     for e in scenario.entities:
