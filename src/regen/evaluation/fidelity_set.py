@@ -1,0 +1,83 @@
+"""Labeled cause texts for entity fidelity (``regen eval --fidelity``).
+
+One JSON object per line: the behavior (its text, domain and ego template or reward), the cause
+text a user insists on, the entities the cause names (each as the assets that may play it, with
+the key states the text implies: ``{"siren": ["on"]}``; ``behavior`` is the motion primitive)
+and a fixed ``split``: ``tune`` (may guide prompt work) or ``test`` (never looked at while
+tuning). Two sets are bundled, ``driving`` and ``manipulation``, written before any tuning on
+them, terse titles among full sentences, every ego behavior and every manipulation task. They
+name some assets the databases do not have yet (a tow truck, a road worker, a spill, a
+visitor): a cause nobody can play counts as a miss until the database can play it.
+"""
+
+from __future__ import annotations
+
+import json
+from importlib import resources
+from pathlib import Path
+from typing import Literal
+
+from pydantic import Field, ValidationError
+
+from regen.core.base import Model
+from regen.errors import ConfigError
+
+_PACKAGE = "regen.evaluation"
+_NAMES = {"driving": "data/fidelity_driving.jsonl", "manipulation": "data/fidelity_manipulation.jsonl"}
+
+
+class ExpectedEntity(Model):
+    any_of: list[str] = Field(min_length=1)  # asset ids that may play the cause
+    states: dict[str, list[str]] = Field(default_factory=dict)  # property -> acceptable values
+
+
+class FidelityCase(Model):
+    id: str = Field(min_length=1)
+    domain: str
+    behavior: str
+    ego_template: str | None = None
+    reward: str | None = None
+    cause: str = Field(min_length=1)
+    entities: list[ExpectedEntity] = Field(min_length=1)
+    split: Literal["tune", "test"]
+
+
+def packaged_sets() -> list[str]:
+    """The names of the bundled labeled sets."""
+    return list(_NAMES)
+
+
+def load_cases(source: str | Path) -> list[FidelityCase]:
+    """The cases of a JSON-lines file, or of a bundled set by name ('driving', 'manipulation')."""
+    if isinstance(source, str) and source in _NAMES:
+        text = resources.files(_PACKAGE).joinpath(_NAMES[source]).read_text(encoding="utf-8")
+        where = f"bundled set {source!r}"
+    else:
+        path = Path(source)
+        try:
+            text = path.read_text(encoding="utf-8")
+        except OSError as exc:
+            raise ConfigError(f"cannot read the labeled set {path}: {exc.strerror or exc}; give a JSON-lines "
+                              f"file or one of: {', '.join(_NAMES)}") from None
+        where = str(path)
+    cases: list[FidelityCase] = []
+    seen: set[str] = set()
+    for n, line in enumerate(text.splitlines(), start=1):
+        if not line.strip():
+            continue
+        try:
+            case = FidelityCase.model_validate(json.loads(line))
+        except (ValueError, ValidationError) as exc:
+            first = exc.errors()[0] if isinstance(exc, ValidationError) else None
+            msg = f"{'.'.join(map(str, first['loc']))}: {first['msg']}" if first else str(exc)
+            raise ConfigError(f"{where}, line {n}: {msg}") from None
+        if case.id in seen:
+            raise ConfigError(f"{where}, line {n}: the id {case.id!r} repeats")
+        seen.add(case.id)
+        cases.append(case)
+    if not cases:
+        raise ConfigError(f"{where} holds no cases")
+    return cases
+
+
+__all__ = ["ExpectedEntity", "FidelityCase", "load_cases", "packaged_sets"]
