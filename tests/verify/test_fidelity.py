@@ -86,3 +86,13 @@ def test_a_scenario_with_only_the_task_object_is_unfaithful() -> None:
     f = check_rules(s, DB, robot=ROBOT, own=own)
     assert f.status == "unfaithful" and "no entity of its cause" in f.reason
     assert isinstance(s.entities[0], Entity)
+
+
+def test_a_state_phrase_of_another_actors_primitive_does_not_bind_the_light() -> None:
+    runner = chain("stop_in_intersection", "a car runs the red light",
+                   ("sedan", {"behavior": ["run_red_light"], "start_location": ["junction_cross_street"]}),
+                   ("traffic_light", {"light_state": ["green"]}))
+    assert _fidelity(runner).status == "faithful"  # the runner's red, not the ego's green light
+    red = chain("stop_in_intersection", "the light turns red",
+                ("traffic_light", {"light_state": ["green"]}))
+    assert _fidelity(red).status == "unfaithful"  # no one runs it: the light itself must turn red

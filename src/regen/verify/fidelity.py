@@ -43,6 +43,15 @@ def _shown(e: Entity) -> str:
     return f"{e.asset} ({what}{'; ' + props if props else ''})"
 
 
+def _explained_by_a_behavior(phrase: str, cast: list[Entity]) -> bool:
+    """Whether the words of a state phrase are those of an actor's motion primitive ('red light'
+    of an actor that runs a red light): the phrase says what that actor does, not a state."""
+    from regen.assets.database import name_words
+
+    words = set(name_words(phrase))
+    return any(e.behavior and words <= set(name_words(e.behavior)) for e in cast)
+
+
 def check_rules(scenario: Scenario, db: AssetDatabase, *, robot: str | Sequence[str] = "",
                 own: frozenset[str] = frozenset(), trace: Trace | None = None) -> Fidelity:
     """What the cause events' words name against what ``scenario`` shows (rules only).
@@ -75,6 +84,8 @@ def check_rules(scenario: Scenario, db: AssetDatabase, *, robot: str | Sequence[
                 have = e.properties.get(prop) if prop != "behavior" else (e.behavior or e.properties.get(prop))
                 track = trace.actors.get(e.name) if trace is not None else None
                 during = set(track.states.get(prop, [])) if track is not None else set()
+                if _explained_by_a_behavior(phrase, cast):
+                    continue  # 'runs the red light': the red light of the runner, not this one's
                 if have is not None and have != state and state not in during:
                     wrong.append(f"'{phrase}' names {prop} = {state}, {e.name} has {prop} = {have}")
     if missing or wrong:
