@@ -27,6 +27,8 @@ from pydantic import Field, ValidationError, model_validator
 
 from regen.core.base import Model
 from regen.core.text import UNSAFE, escaped
+from regen.core.words import name_words
+from regen.core.words import surface_words as _surface
 from regen.errors import AssetDatabaseError, ConfigError
 
 
@@ -68,15 +70,8 @@ DESCRIPTION_WEIGHT = 0.95
 #: Without a shared head noun, only near-identical spellings count (typos: 'ambulence').
 SPELLING = 0.85
 
-_STOPWORDS = {"a", "an", "the", "some", "one", "two", "three", "its", "their", "his", "her", "own"}
 _CUT = re.compile(r"[:;,()]|\b(?:with|of|on|in|at|for|from|by|near|under|over|behind|beside|"
                   r"that|which|who|and|or)\b")
-
-
-def name_words(text: str) -> list[str]:
-    """The words of a name as matching compares them: lower case, singular, no articles."""
-    text = re.sub(r"[^a-z0-9 ]+", " ", text.lower().replace("_", " ").replace("-", " "))
-    return [_singular(w) for w in text.split() if w not in _STOPWORDS]
 
 
 # Words after 'the vehicle' that make it another vehicle than the robot ('the vehicle ahead').
@@ -94,20 +89,6 @@ def _without_robot(text: str, names: list[str]) -> str:
             pattern += rf"(?!\s+(?:{place})\b)"
         out = re.sub(pattern, " itself ", out)  # a word no asset is named by
     return out
-
-
-def _surface(text: str) -> list[str]:
-    """The words of a name as written (lower case, no articles), not made singular."""
-    text = re.sub(r"[^a-z0-9 ]+", " ", text.lower().replace("_", " ").replace("-", " "))
-    return [w for w in text.split() if w not in _STOPWORDS]
-
-
-def _singular(word: str) -> str:
-    if len(word) > 4 and word.endswith(("ches", "shes", "xes", "sses")):
-        return word[:-2]
-    if len(word) > 3 and word.endswith("s") and not word.endswith(("ss", "us", "is")):
-        return word[:-1]
-    return word
 
 
 def _main_phrases(description: str) -> list[str]:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from regen.assets.database import name_words
+from regen.core.words import name_words
 from regen.contract import DomainBackend, ReportHints, SimulationOutput, Wording
 from regen.core.behavior import Behavior
 from regen.core.graph import CausePath

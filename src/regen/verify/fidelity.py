@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Literal
 
 from regen.core.base import Answer
 from regen.core.verdict import Fidelity, Verdict
+from regen.core.words import name_words
 from regen.templates import render
 
 if TYPE_CHECKING:
@@ -46,8 +47,6 @@ def _shown(e: Entity) -> str:
 def _explained_by_a_behavior(phrase: str, cast: list[Entity]) -> bool:
     """Whether the words of a state phrase are those of an actor's motion primitive ('red light'
     of an actor that runs a red light): the phrase says what that actor does, not a state."""
-    from regen.assets.database import name_words
-
     words = set(name_words(phrase))
     return any(e.behavior and words <= set(name_words(e.behavior)) for e in cast)
 

@@ -1,0 +1,32 @@
+"""The words of a name as the toolkit compares names: lower case, singular, no articles.
+
+One home for the comparison the asset database, expansion and the fidelity check share, so
+that 'the traffic lights' and 'traffic_light' are the same two words everywhere.
+"""
+
+from __future__ import annotations
+
+import re
+
+#: Words that never tell two names apart.
+STOPWORDS = frozenset({"a", "an", "the", "some", "one", "two", "three", "its", "their", "his", "her", "own"})
+
+
+def singular(word: str) -> str:
+    """``word`` without a plural ending (a rule, not a dictionary: 'benches' -> 'bench')."""
+    if len(word) > 4 and word.endswith(("ches", "shes", "xes", "sses")):
+        return word[:-2]
+    if len(word) > 3 and word.endswith("s") and not word.endswith(("ss", "us", "is")):
+        return word[:-1]
+    return word
+
+
+def surface_words(text: str) -> list[str]:
+    """The words of a name as written (lower case, no articles), not made singular."""
+    text = re.sub(r"[^a-z0-9 ]+", " ", text.lower().replace("_", " ").replace("-", " "))
+    return [w for w in text.split() if w not in STOPWORDS]
+
+
+def name_words(text: str) -> list[str]:
+    """The words of a name as matching compares them: lower case, singular, no articles."""
+    return [singular(w) for w in surface_words(text)]
