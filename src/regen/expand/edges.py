@@ -15,9 +15,9 @@ from typing import TYPE_CHECKING, Any, Literal, Union
 from pydantic import Field, create_model
 
 from regen.assets.database import MATCH_THRESHOLD, AssetDatabase
-from regen.core.words import name_words
 from regen.core.base import Answer
 from regen.core.behavior import Behavior
+from regen.core.words import name_words
 from regen.errors import ConfigError
 from regen.expand.answers import EdgeVerdict, EntitySelection, EventProposal, YesNo
 from regen.expand.dedupe import normalize, similar

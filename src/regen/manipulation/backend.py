@@ -4,13 +4,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from regen.core.words import name_words
 from regen.contract import DomainBackend, ReportHints, SimulationOutput, Wording
 from regen.core.behavior import Behavior
 from regen.core.graph import CausePath
 from regen.core.scenario import Scenario
 from regen.core.trace import Trace
 from regen.core.verdict import Verdict
+from regen.core.words import name_words
 from regen.errors import ConfigError, SimulationError
 from regen.manipulation.assets import RESOURCE
 from regen.manipulation.behaviors import BEHAVIORS, resolve
