@@ -75,7 +75,15 @@ def test_a_manipulation_cause_never_takes_the_task_object_for_its_entity() -> No
     assert pet.status == "accepted" and pet.history[0].by == "database"
     door = _node(g, "door", "entity")
     assert door.status == "rejected" and "own task object" in door.history[-1].reason
-    assert [e.asset for e in g.paths()[0].entities] == ["pet"]
+    (path,) = g.paths()
+    assert [e.asset for e in path.entities] == ["pet"]
+    # grounded, the pet is a context entity outside the door, its placement a cause state
+    from regen.manipulation.grounding import ground_path
+
+    sc = ground_path(path)
+    pet1 = sc.entity("pet1")
+    assert pet1.properties["role"] == "context" and pet1.behavior_params["relation"] == "outside"
+    assert any(s.actor == "pet1" and s.cause for s in sc.fsm.states)
 
 
 def test_names_overlap_the_longest_wins_and_the_robot_names_nothing() -> None:

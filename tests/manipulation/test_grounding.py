@@ -124,3 +124,25 @@ def test_provider_errors_propagate_unchanged(tmp_path, error):
     with pytest.raises(error) as caught:
         ground_path(_pet_at_door(), LLM(FunctionProvider(fail), cache=tmp_path / "c.sqlite"))
     assert caught.value is raised
+
+
+@pytest.mark.parametrize("reward,text,cause,asset,relation", [
+    ("open_door", "the robot opens the door", "a visitor rings and waits at the door", "visitor", "outside"),
+    ("carry_bucket", "the robot carries the bucket", "juice was spilled on the floor", "spill", "near"),
+    ("turn_oven_knob", "the robot turns the oven knob", "the ingredients for a cake are ready", "ingredients", "on"),
+])
+def test_context_assets_are_placed_with_a_cause_state(reward, text, cause, asset, relation):
+    sc = ground_path(_path(reward, text, [cause], [asset]))
+    assert sc.solver.status == "optimal" and not sc.solver.relaxations
+    e = sc.entity(f"{asset}1")
+    assert e.properties["role"] == "context" and e.behavior_params["relation"] == relation
+    placed = next(s for s in sc.fsm.states if s.actor == e.name)
+    assert placed.cause and placed.all_of[0].name == relation
+    assert sc.fsm.stages[0].conditions[0].actor == e.name  # it holds before the robot acts
+
+
+def test_what_a_carried_bucket_is_for_stays_where_the_bucket_leaves():
+    # relative to the bucket, the spill would move away with it and its cause state end false
+    sc = ground_path(_path("carry_bucket", "the robot carries the bucket", ["mopping the floor"], ["mop", "spill"]))
+    refs = {e.name: e.behavior_params["reference"] for e in sc.entities if e.properties.get("role") == "context"}
+    assert refs == {"mop1": "table", "spill1": "table"}

@@ -81,6 +81,11 @@ RULES: dict[tuple[str, str], tuple[str, str]] = {
     ("*", "trash_can"): ("right_of", "F"), ("*", "adult"): ("near", "table"),
     ("*", "child"): ("near", "table"), ("*", "pet"): ("left_of", "F"),
     ("*", "plant"): ("near", "table"), ("*", "tv"): ("on", "table"),
+    ("open_door", "visitor"): ("outside", "F"), ("*", "visitor"): ("near", "table"),
+    ("*", "spill"): ("near", "F"), ("*", "mop"): ("left_of", "F"),
+    # the carried bucket leaves its place: what it is carried for stays by the table
+    ("carry_bucket", "spill"): ("near", "table"), ("carry_bucket", "mop"): ("near", "table"),
+    ("*", "ingredients"): ("on", "table"),
 }
 
 

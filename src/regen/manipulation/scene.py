@@ -84,6 +84,8 @@ PROXY_STYLE: dict[str, tuple[RGBA, str]] = {
     "trash_can": ((0.45, 0.45, 0.45, 1), "cylinder"), "tv": ((0.1, 0.1, 0.12, 1), "box"),
     "desk_lamp": ((0.95, 0.85, 0.3, 1), "cylinder"), "fruit": ((0.95, 0.55, 0.1, 1), "cylinder"),
     "toy": ((0.95, 0.3, 0.6, 1), "box"), "cup": ((0.9, 0.25, 0.2, 1), "cylinder"),
+    "visitor": ((0.55, 0.3, 0.6, 1), "cylinder"), "spill": ((0.85, 0.55, 0.1, 0.9), "box"),
+    "mop": ((0.85, 0.8, 0.6, 1), "cylinder"), "ingredients": ((0.9, 0.8, 0.5, 1), "box"),
 }
 
 # pybullet_data meshes: file, orientation (roll, pitch, yaw) [rad], global scale.
