@@ -16,8 +16,6 @@ named constraints to the world's placement model; grounding reads the specs, nev
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
 from collections.abc import Mapping
 from functools import lru_cache
 from types import MappingProxyType
@@ -33,22 +31,15 @@ from regen.driving.primitives.base import (
     SpeedClasses,
 )
 from regen.driving.world.locations import LOCATIONS
+from regen.driving.world.specs import one_per_module
 from regen.errors import GroundingError
 
 
 @lru_cache(maxsize=1)
 def registry() -> Mapping[str, Primitive]:
     """Every spec of this package by name (module order)."""
-    specs: dict[str, Primitive] = {}
-    for info in sorted(pkgutil.iter_modules(__path__), key=lambda i: i.name):
-        if info.name.startswith("_") or info.name == "base":
-            continue
-        spec = importlib.import_module(f"{__name__}.{info.name}").SPEC
-        if spec.name != info.name:
-            raise ValueError(f"{__name__}.{info.name} defines the primitive {spec.name!r}; "
-                             "name the module after its primitive")
-        specs[spec.name] = spec
-    return MappingProxyType(specs)
+    specs: list[Primitive] = one_per_module(__name__, __path__, "SPEC", "name", "primitive")  # type: ignore[assignment]
+    return MappingProxyType({spec.name: spec for spec in specs})
 
 
 @lru_cache(maxsize=1)

@@ -24,8 +24,6 @@ the maps. Imports: the rest of ``world`` and the shared core.
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
 import re
 from collections.abc import Mapping
 from types import MappingProxyType
@@ -40,19 +38,12 @@ from regen.driving.world.egos.base import (
     arc,
     stop_distance,
 )
+from regen.driving.world.specs import one_per_module
 from regen.errors import ConfigError
 
 
 def _collect() -> Mapping[str, EgoTemplate]:
-    found: list[EgoTemplate] = []
-    for info in pkgutil.iter_modules(__path__):
-        if info.name.startswith("_") or info.name == "base":
-            continue
-        t = importlib.import_module(f"{__name__}.{info.name}").TEMPLATE
-        if t.id != info.name:
-            raise ValueError(f"{__name__}.{info.name} defines the ego template {t.id!r}; "
-                             "name the module after its template")
-        found.append(t)
+    found: list[EgoTemplate] = one_per_module(__name__, __path__, "TEMPLATE", "id", "ego template")  # type: ignore[assignment]
     return MappingProxyType({t.id: t for t in sorted(found, key=lambda t: (t.rank, t.id))})
 
 
