@@ -200,3 +200,27 @@ def test_judge_candidates_decides_as_expansion_does():
                            domain="driving", context=["a cyclist waits at the roadside", "stop"])
     assert "behavior: stationary" in got and not any(g.startswith("target_speed") for g in got)
     assert model.kinds[-1] == "properties" and model.kinds.count("properties") == 1
+
+
+def test_the_bundled_split_is_fixed_whole_calls_on_one_side_both_halves_per_kind():
+    rows = load_edge_examples(bundled_edge_examples())
+    assert all(r.split in ("tune", "test") for r in rows)
+    side: dict[tuple, str] = {}
+    for r in rows:  # one call's candidates are judged together: never split across halves
+        assert side.setdefault((r.domain, r.kind, r.source, r.context), r.split) == r.split
+    for domain in ("driving", "manipulation"):
+        for kind in KINDS:
+            halves = {r.split for r in rows if (r.domain, r.kind) == (domain, kind)}
+            assert halves == {"tune", "test"}, (domain, kind)
+
+
+def test_metrics_are_reported_per_split():
+    rows = [r.model_copy(update={"split": "tune" if r.source == "ego stops" else "test"}) for r in EXAMPLES]
+    rows.append(ex("event->event", "ego slows", "a slow truck ahead", True).model_copy(update={"split": "test"}))
+    rep = evaluate_edges(rows, lambda k, s, c, **kw: set(c), trials=1)  # accepts everything
+    by = {(g.domain, g.kind, g.split): g for g in rep.groups}
+    assert set(by) == {("driving", "event->event", "tune"), ("driving", "event->event", "test"),
+                       ("driving", "entity->event", "test"), ("manipulation", "entity->event", "test")}
+    assert by[("driving", "event->event", "tune")].accuracy.mean == 0.5  # 2 of 4 are causes
+    assert by[("driving", "event->event", "test")].accuracy.mean == 1.0
+    assert by[("driving", "event->event", "test")].examples == 1

@@ -14,6 +14,9 @@ Labeled file (JSON lines, UTF-8, one example per line; blank lines and lines sta
 - ``kind``: ``event->event`` (candidate cause event -> source event), ``entity->event``
   (candidate asset id -> source event), ``property->entity`` (candidate property value ->
   source entity);
+- ``split`` (optional): ``tune`` (prompt and threshold work may look at it) or ``test`` (never
+  looked at while tuning; the figure to report); rows without one form the group ``all``.
+  The bundled sets carry a fixed split, alternating within each (domain, kind, source);
 - ``label``: whether the edge is plausible; ``context`` (optional): the chain the source sits
   in, behavior first, joined by ``<-`` (the source may end it); ``domain``: a registered domain
   (``regen.domains.names()``). Each domain ships its own labeled rows (its backend's
@@ -52,6 +55,7 @@ class EdgeExample(Model):
     label: bool
     context: str | None = None
     domain: str = Field(min_length=1)
+    split: Literal["tune", "test"] | None = None
 
 
 class Judge(Protocol):
@@ -76,6 +80,7 @@ class Stat(BaseModel):
 class GroupResult(BaseModel):
     domain: str
     kind: str
+    split: str = "all"  # 'tune', 'test', or 'all' (rows without a split)
     examples: int  # rows
     calls: int  # edge-construction calls per trial
     accuracy: Stat
@@ -152,10 +157,17 @@ def _stat(values: list[float]) -> Stat:
     return Stat(mean=float(arr.mean()), std=float(arr.std()))
 
 
+Group = tuple[str, str, str]  # (domain, kind, split)
+
+
+def _group(ex: EdgeExample) -> Group:
+    return (ex.domain, ex.kind, ex.split or "all")
+
+
 def evaluate_edges(examples: list[EdgeExample], judge: Judge | None = None, *, trials: int = 5,
                    judge_for_trial: Callable[[int], Judge] | None = None,
                    progress: Callable[[int], None] | None = None) -> EdgeReport:
-    """Run ``judge`` over the labeled examples ``trials`` times; metrics per (domain, kind).
+    """Run ``judge`` over the labeled examples ``trials`` times; metrics per (domain, kind, split).
 
     ``judge_for_trial(t)`` instead gives a fresh judge per trial, e.g. a model client without
     the answers of earlier trials in its cache, so that trials are independent samples.
@@ -167,16 +179,15 @@ def evaluate_edges(examples: list[EdgeExample], judge: Judge | None = None, *, t
     calls: dict[tuple[str, str, str, str | None], list[EdgeExample]] = {}
     for ex in examples:
         calls.setdefault((ex.domain, ex.kind, ex.source, ex.context), []).append(ex)
-    groups = sorted({(ex.domain, ex.kind) for ex in examples},
-                    key=lambda g: (g[0], KINDS.index(g[1])))
-    per_trial: dict[tuple[str, str], list[Metrics]] = {g: [] for g in groups}
-    failed: dict[tuple[str, str], int] = {g: 0 for g in groups}
+    groups = sorted({_group(ex) for ex in examples}, key=lambda g: (g[0], KINDS.index(g[1]), g[2]))
+    per_trial: dict[Group, list[Metrics]] = {g: [] for g in groups}
+    failed: dict[Group, int] = {g: 0 for g in groups}
     for t in range(trials):
         if progress:
             progress(t)
         trial_judge = judge_for_trial(t) if judge_for_trial is not None else judge
-        labels: dict[tuple[str, str], list[bool]] = {g: [] for g in groups}
-        preds: dict[tuple[str, str], list[bool]] = {g: [] for g in groups}
+        labels: dict[Group, list[bool]] = {g: [] for g in groups}
+        preds: dict[Group, list[bool]] = {g: [] for g in groups}
         for (domain, kind, source, context), rows in calls.items():
             candidates = list(dict.fromkeys(r.candidate for r in rows))
             try:
@@ -184,19 +195,20 @@ def evaluate_edges(examples: list[EdgeExample], judge: Judge | None = None, *, t
                                                   context=context, domain=domain)}
             except RegenError as exc:
                 log.warning("edge construction failed for %s %r: %s", kind, source, exc)
-                failed[(domain, kind)] += 1
+                for g in {_group(r) for r in rows}:
+                    failed[g] += 1
                 accepted = set()
             for r in rows:
-                labels[(domain, kind)].append(r.label)
-                preds[(domain, kind)].append(r.candidate in accepted)
+                labels[_group(r)].append(r.label)
+                preds[_group(r)].append(r.candidate in accepted)
         for g in groups:
             per_trial[g].append(metrics(labels[g], preds[g]))
     out = []
     for g in groups:
         ms = per_trial[g]
         out.append(GroupResult(
-            domain=g[0], kind=g[1], examples=sum(1 for e in examples if (e.domain, e.kind) == g),
-            calls=sum(1 for k in calls if (k[0], k[1]) == g),
+            domain=g[0], kind=g[1], split=g[2], examples=sum(1 for e in examples if _group(e) == g),
+            calls=sum(1 for k, rows in calls.items() if any(_group(r) == g for r in rows)),
             accuracy=_stat([m.accuracy for m in ms]), precision=_stat([m.precision for m in ms]),
             recall=_stat([m.recall for m in ms]), f1=_stat([m.f1 for m in ms]),
             trials=ms, failed_calls=failed[g]))

@@ -68,12 +68,14 @@ def print_report(report: EvalReport, console: Console | None = None,
     if report.edges:
         e = report.edges
         t = Table(title=f"Edge construction (mean ± std over {e.trials} trials)")
-        for col in ("edge", "domain", "examples", "accuracy", "precision", "recall", "F1"):
-            t.add_column(col, justify="left" if col in ("edge", "domain") else "right")
+        for col in ("edge", "domain", "split", "examples", "accuracy", "precision", "recall", "F1"):
+            t.add_column(col, justify="left" if col in ("edge", "domain", "split") else "right")
         for g in e.groups:
             cells = [f"{s.mean:.2f} ± {s.std:.2f}" for s in (g.accuracy, g.precision, g.recall, g.f1)]
-            t.add_row(g.kind, g.domain, str(g.examples), *cells)
+            t.add_row(g.kind, g.domain, g.split, str(g.examples), *cells)
         console.print(t)
+        if any(g.split == "tune" for g in e.groups):
+            console.print("tune: rows prompt work may look at; test: rows it never looks at (report these)")
         failed = sum(g.failed_calls for g in e.groups)
         if failed:
             console.print(f"[yellow]{failed} edge-construction calls failed and counted as "
