@@ -23,3 +23,21 @@ def test_offline_model_returns_a_schema_valid_answer() -> None:
     assert isinstance(got.value, Causes)
     assert len(got.value.causes) >= 1 and all(c.strip() for c in got.value.causes)
     assert llm.stats.total.output_tokens > 0
+
+
+def test_offline_model_weighs_an_obvious_yes_above_an_obvious_no(tmp_path) -> None:
+    pytest.importorskip("llama_cpp", reason="the 'local' extra is not installed")
+    from regen.llm import LLM
+
+    llm = LLM("local", cache=tmp_path / "c.sqlite")
+    assert llm.can_weigh
+    q = 'Is {} a reason for a car to brake hard? Answer as JSON: {{"answer": "yes" or "no"}}'
+    yes = llm.weigh(q.format("a child running onto the road in front of it"), ("yes", "no"),
+                    prefix='{"answer": "', purpose="smoke")
+    no = llm.weigh(q.format("a song playing on a radio in another country"), ("yes", "no"),
+                   prefix='{"answer": "', purpose="smoke")
+    assert sum(yes.value.values()) == pytest.approx(1.0) and not yes.cached
+    assert yes.value["yes"] > 0.5 > no.value["yes"]
+    again = LLM("local", cache=tmp_path / "c.sqlite", replay=True)  # replayed from the cache file
+    assert again.weigh(q.format("a child running onto the road in front of it"), ("yes", "no"),
+                       prefix='{"answer": "', purpose="smoke").value == yes.value

@@ -306,7 +306,11 @@ class AssetDatabase(Model):
         if prop not in self.parameters_of(asset):
             return None
         text = " ".join(event.lower().split())
+        # a motion the asset cannot make is another actor's ('a car waits for a child crossing
+        # the road': crossing is the child's)
+        able = set(self.assets[asset].behaviors) if prop == "behavior" else None
         found = [(len(ph), st, ph) for st, phrases in self.properties[prop].named_by.items()
+                 if able is None or st in able
                  for ph in phrases if re.search(rf"\b{re.escape(ph.lower())}\b", text)]
         if not found:
             return None

@@ -10,7 +10,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import TYPE_CHECKING, Any, Literal, Union
+from typing import TYPE_CHECKING, Any, Literal, Union, get_args
 
 from pydantic import Field, create_model
 
@@ -20,6 +20,7 @@ from regen.core.behavior import Behavior
 from regen.core.words import name_words
 from regen.errors import ConfigError
 from regen.expand.answers import EdgeVerdict, EntitySelection, EventProposal, YesNo
+from regen.expand.calibration import ANSWER_PREFIX, threshold_for
 from regen.expand.dedupe import normalize, similar
 from regen.llm.client import LLM
 from regen.templates import render
@@ -165,19 +166,29 @@ def propose_events(llm: LLM, domain: Domain, chain: list[str], *, prior: str | N
     return got.value.causes[:max_causes], got.call_id
 
 
+def event_question(domain: Domain, chain: list[str], candidate: str) -> str:
+    """The event judge's question: is ``candidate`` a direct reason for ``chain[0]``?"""
+    domain = domain_view(domain)
+    return _render("event_edge", domain, chain=chain, source=chain[0], candidate=candidate, robot=domain.robot)
+
+
 def judge_events(llm: LLM, domain: Domain, chain: list[str], candidates: list[str]) -> Judged:
     """Which candidates plausibly and directly cause ``chain[0]``: one yes/no call per candidate.
 
     Each call restates the effect as a question about that one candidate, with the domain's
-    worked example (``Wording.judge_example``), and asks for the reason before the answer; a
-    small model judges one short question far better than a list of them at once.
+    worked examples (``Wording.judge_examples``); a small model judges one short question far
+    better than a list of them at once. A model with a calibrated threshold
+    (:mod:`regen.expand.calibration`) is decided by its probability of yes; others by their
+    written answer and reason.
     """
     domain = domain_view(domain)
+    threshold = threshold_for(llm.provider.id) if llm.can_weigh else None
+    if threshold is not None:
+        return _weigh_events(llm, domain, chain, candidates, threshold)
 
     def ask(candidate: str):
-        prompt = _render("event_edge", domain, chain=chain, source=chain[0], candidate=candidate,
-                         robot=domain.robot)
-        return llm.ask(prompt, EdgeVerdict, purpose="event_edges", system=domain.system)
+        return llm.ask(event_question(domain, chain, candidate), EdgeVerdict, purpose="event_edges",
+                       system=domain.system)
 
     answers = llm.map(ask, candidates)
     out = Judged(call_id=answers[0].call_id if answers else "")
@@ -188,6 +199,26 @@ def judge_events(llm: LLM, domain: Domain, chain: list[str], candidates: list[st
             out.accepted[c] = reason or "plausible direct cause"
         else:
             out.rejected[c] = reason or "judged implausible"
+    return out
+
+
+def _weigh_events(llm: LLM, domain: DomainView, chain: list[str], candidates: list[str],
+                  threshold: float) -> Judged:
+    """The event judge of a calibrated model: the same question, decided by the model's
+    probability of 'yes' against the threshold chosen on the tune half (:mod:`.calibration`)."""
+    def weigh(candidate: str):
+        return llm.weigh(event_question(domain, chain, candidate), ("yes", "no"), prefix=ANSWER_PREFIX,
+                         purpose="event_edges", system=domain.system)
+
+    answers = llm.map(weigh, candidates)
+    out = Judged(call_id=answers[0].call_id if answers else "")
+    for c, got in zip(candidates, answers, strict=True):
+        out.calls[c] = got.call_id
+        p = got.value["yes"]
+        if p >= threshold:
+            out.accepted[c] = f"the judge's P(yes) = {p:.2f} reaches its calibrated threshold {threshold:.2f}"
+        else:
+            out.rejected[c] = f"the judge's P(yes) = {p:.2f} is below its calibrated threshold {threshold:.2f}"
     return out
 
 
@@ -391,6 +422,9 @@ def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, en
         ruled[p] = {v: f'the event says "{phrase}", which names {p} = {state}' for v in values if v != state}
         options = {**options, p: (desc, [state])}
     variants = _choice_models(options, choices)
+    if len(variants) == 1:  # the prompt offers what the schema allows (a named behavior's starts)
+        fields = variants[0].model_fields
+        options = {p: (d, list(get_args(fields[p].annotation))) for p, (d, _) in options.items() if p in fields}
     choice_type = variants[0] if len(variants) == 1 else Union[tuple(variants)]  # noqa: UP007
     schema = create_model("PropertyValues", __base__=Answer, role=(str, ...), choice=(choice_type, ...))
     rules = []

@@ -54,6 +54,16 @@ class Provider(ABC):
                  sampling: Sampling) -> Completion:
         """One model call. ``schema`` is the JSON schema the answer must follow (if supported)."""
 
+    #: Whether :meth:`option_probs` can read the model's next-token probabilities.
+    option_probs_supported: bool = False
+
+    def option_probs(self, messages: list[Message], *, prefix: str, options: tuple[str, ...]
+                     ) -> tuple[dict[str, float], int]:
+        """The model's probability of each option as the next words of its answer after
+        ``prefix`` (``{"answer": "``), renormalised over the options, and the prompt's token
+        count. Only where :attr:`option_probs_supported`."""
+        raise NotImplementedError(f"{self.id} gives no next-token probabilities")
+
 
 class RetryableError(Exception):
     """A failure worth retrying (timeout, connection error, 429, 5xx)."""

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import logging
 import threading
 import time
@@ -215,6 +216,46 @@ class LLM:
         raise MalformedAnswerError(
             f"{self.provider.id} gave no valid '{purpose}' answer after {self.max_reasks} re-asks: "
             f"{problem}. A stronger model (--llm openai:<model> or anthropic:<model>) usually fixes this.")
+
+    @property
+    def can_weigh(self) -> bool:
+        """Whether :meth:`weigh` can read option probabilities from this client's model."""
+        return self.provider.option_probs_supported
+
+    def weigh(self, messages: str | Sequence[Message], options: tuple[str, ...], *, prefix: str,
+              purpose: str = "call", system: str | None = None) -> Answered[dict[str, float]]:
+        """The model's probability of each option as its answer's next words after ``prefix``
+        (renormalised over ``options``), cached and replayed like an answer."""
+        msgs: list[Message] = ([{"role": "user", "content": messages}] if isinstance(messages, str)
+                               else [dict(m) for m in messages])  # type: ignore[misc]
+        if system:
+            msgs.insert(0, {"role": "system", "content": system})
+        asked = {"weigh": list(options), "prefix": prefix}  # in the schema's place in the cache key
+        key = cache_key(self.provider.id, msgs, asked, self.sampling)
+        hit = self.cache.get(key)
+        if hit is None and self.replay:
+            raise CacheMissError(f"replay mode: no cached probabilities for a '{purpose}' call to "
+                                 f"{self.provider.id} (key {key[:12]}). Run without --replay to call the model.")
+        if hit is None:
+            if not self.can_weigh:
+                raise ConfigError(f"{self.provider.id} gives no option probabilities; ask for an answer instead")
+            start = time.perf_counter()
+            with self._provider_lock:
+                probs, n_in = self.provider.option_probs(msgs, prefix=prefix, options=tuple(options))
+            latency = time.perf_counter() - start
+            completion = Completion(text=json.dumps(probs, sort_keys=True), input_tokens=n_in)
+            self.cache.put(key, self.provider.id, purpose, completion, latency)
+            cached = False
+        else:
+            completion, latency = hit
+            cached = True
+        self._record(purpose, completion, latency, cached=cached)
+        try:
+            raw = json.loads(completion.text)
+            probs = {o: float(raw[o]) for o in options}
+        except (ValueError, KeyError, TypeError) as exc:
+            raise ProviderResponseError(f"cached probabilities for '{purpose}' are unreadable: {exc}") from exc
+        return Answered(value=probs, call_id=key, cached=cached, attempts=1)
 
     def structured(self, messages: str | Sequence[Message], schema: type[T], *, purpose: str = "call",
                    system: str | None = None) -> T:

@@ -98,3 +98,34 @@ class LocalProvider(Provider):
         return Completion(text=out["choices"][0]["message"]["content"] or "",
                           input_tokens=int(usage.get("prompt_tokens", 0)),
                           output_tokens=int(usage.get("completion_tokens", 0)))
+
+    option_probs_supported = True
+
+    def option_probs(self, messages: list[Message], *, prefix: str, options: tuple[str, ...]
+                     ) -> tuple[dict[str, float], int]:
+        """One forward pass over the chat prompt (the model's own chat template) and ``prefix``;
+        each option's probability is its first token's, renormalised over the options."""
+        import llama_cpp
+        import numpy as np
+        from llama_cpp.llama_chat_format import Jinja2ChatFormatter
+
+        llm = self.llama()
+        template = llm.metadata.get("tokenizer.chat_template")
+        if not template:
+            raise ModelFileError(f"{self.model} carries no chat template; option probabilities need one")
+        token_text = llm._model.token_get_text  # noqa: SLF001 (llama-cpp exposes no public getter)
+        bos = token_text(llm.token_bos()) if llm.token_bos() >= 0 else ""
+        formatter = Jinja2ChatFormatter(template=template, eos_token=token_text(llm.token_eos()),
+                                        bos_token=bos, add_generation_prompt=True)
+        prompt = formatter(messages=list(messages)).prompt + prefix
+        firsts = [llm.tokenize(o.encode("utf-8"), add_bos=False, special=False)[0] for o in options]
+        if len(set(firsts)) != len(firsts):
+            raise ValueError(f"options {options} share a first token; they cannot be told apart")
+        tokens = llm.tokenize(prompt.encode("utf-8"), add_bos=False, special=True)
+        llm.reset()  # a fresh context: a following completion reuses this prompt as its prefix
+        llm.eval(tokens)
+        logits = np.ctypeslib.as_array(llama_cpp.llama_get_logits_ith(llm._ctx.ctx, -1),  # noqa: SLF001
+                                       shape=(llm.n_vocab(),)).astype(np.float64)
+        chosen = logits[firsts] - logits.max()
+        probs = np.exp(chosen) / np.exp(chosen).sum()
+        return {o: float(p) for o, p in zip(options, probs, strict=True)}, len(tokens)
