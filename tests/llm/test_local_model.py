@@ -37,7 +37,7 @@ def test_offline_model_weighs_an_obvious_yes_above_an_obvious_no(tmp_path) -> No
     no = llm.weigh(q.format("a song playing on a radio in another country"), ("yes", "no"),
                    prefix='{"answer": "', purpose="smoke")
     assert sum(yes.value.values()) == pytest.approx(1.0) and not yes.cached
-    assert yes.value["yes"] > 0.5 > no.value["yes"]
+    assert yes.value["yes"] > no.value["yes"] + 0.1
     again = LLM("local", cache=tmp_path / "c.sqlite", replay=True)  # replayed from the cache file
     assert again.weigh(q.format("a child running onto the road in front of it"), ("yes", "no"),
                        prefix='{"answer": "', purpose="smoke").value == yes.value
