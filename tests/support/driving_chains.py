@@ -41,6 +41,8 @@ FEASIBLE: dict[str, list[CausePath]] = {
               {"behavior": ["cross_the_road"], "start_location": ["crosswalk_ahead"]})),
         chain("slow_down", "a car cuts in", ("sedan", {"behavior": ["cut_in"],
               "start_location": ["behind_adjacent_lane"], "target_speed": ["fast"]})),
+        chain("slow_down", "the car ahead pulls over to pick up a passenger", ("sedan",
+              {"behavior": ["pull_over"], "start_location": ["ahead_same_lane"], "target_speed": ["moderate"]})),
     ],
     "drive_forward": [
         chain("drive_forward", "the traffic light turns green",
