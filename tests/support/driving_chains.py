@@ -33,6 +33,11 @@ FEASIBLE: dict[str, list[CausePath]] = {
                          "target_speed": ["moderate"]})),
         chain("stop_abruptly", "a parked car opens its door",
               ("parked_car", {"door": ["opens"], "start_location": ["roadside_ahead"]})),
+        chain("stop_abruptly", "a police checkpoint is ahead",
+              ("police_car", {"behavior": ["checkpoint"], "start_location": ["ahead_same_lane"]})),
+        chain("stop_abruptly", "a car drives the wrong way in the ego's lane",
+              ("sedan", {"behavior": ["wrong_way"], "start_location": ["ahead_same_lane"],
+                         "target_speed": ["moderate"]})),
     ],
     "slow_down": [
         chain("slow_down", "a slow truck is ahead", ("truck", {"behavior": ["drive_forward"],
@@ -43,6 +48,8 @@ FEASIBLE: dict[str, list[CausePath]] = {
               "start_location": ["behind_adjacent_lane"], "target_speed": ["fast"]})),
         chain("slow_down", "the car ahead pulls over to pick up a passenger", ("sedan",
               {"behavior": ["pull_over"], "start_location": ["ahead_same_lane"], "target_speed": ["moderate"]})),
+        chain("slow_down", "a person waits at the curb to hail a taxi", ("adult",
+              {"behavior": ["wait_at_curb"], "start_location": ["roadside_ahead"]})),
     ],
     "drive_forward": [
         chain("drive_forward", "the traffic light turns green",
@@ -74,6 +81,9 @@ FEASIBLE: dict[str, list[CausePath]] = {
         chain("stop_in_intersection", "a fire truck crosses with its siren on", ("fire_truck",
               {"behavior": ["run_red_light"], "siren": ["on"], "start_location": ["junction_cross_street"],
                "target_speed": ["moderate"]})),
+        chain("stop_in_intersection", "an ambulance with its siren on passes through the junction",
+              ("ambulance", {"behavior": ["pass_through"], "start_location": ["junction_cross_street"],
+                             "target_speed": ["fast"]})),
     ],
 }
 

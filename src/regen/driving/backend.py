@@ -116,15 +116,18 @@ class DrivingBackend(DomainBackend):
         starts = db.property_candidates(asset, "start_location") or []
         speeds = db.property_candidates(asset, "target_speed") or []
         out: dict[str | None, dict[str, list[str]]] = {}
-        for b in db.assets[asset].behaviors:
-            spec = find(b)
-            if spec is None:
-                continue
+        specs = {b: spec for b in db.assets[asset].behaviors if (spec := find(b)) is not None}
+        # properties a primitive implies (siren on): that value with it, any value without it
+        implied = {p: db.property_candidates(asset, p) or [] for spec in specs.values() for p in spec.implies
+                   if p in db.parameters_of(asset)}
+        for b, spec in specs.items():
             allowed: dict[str, list[str]] = {}
             if starts:
                 allowed["start_location"] = [x for x in spec.starts if x in starts] or list(starts)
             if speeds and spec.moves:
                 allowed["target_speed"] = list(speeds)
+            for p, values in implied.items():
+                allowed[p] = [spec.implies[p]] if p in spec.implies else list(values)
             out[b] = allowed
         return ("behavior", out) if out else None
 

@@ -9,7 +9,7 @@ from regen.driving.assets import database
 from regen.driving.grounding.feasibility import never_holds
 from regen.driving.grounding.fsm_rules import is_reaction, rule_based_fsm, with_cause_states
 from regen.driving.grounding.placement import solve
-from regen.driving.grounding.rules import check_roles, choose_map, default_location
+from regen.driving.grounding.rules import check_roles, choose_map, default_location, implied
 from regen.driving.primitives import for_actor, get, is_state_only, registry
 from regen.driving.primitives.base import MOTION_PREDICATES, Placed
 from regen.driving.world.actors import ActorSpec, RoleChoice
@@ -55,7 +55,7 @@ def _roles(name: str, *, variants: bool = False):
             for start in spec.starts or (default_location(name, asset),):
                 for t in EGO_TEMPLATES.values():
                     role = RoleChoice(name=f"{asset}1", asset=asset, primitive=name, location=start,
-                                      speed_class="moderate", properties=p)
+                                      speed_class="moderate", properties=implied(name, asset, p, db))
                     if check_roles([role], db):
                         continue
                     try:

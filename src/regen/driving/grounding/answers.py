@@ -33,6 +33,7 @@ from pydantic import AfterValidator, Field, create_model, field_validator, model
 from regen.assets.database import AssetDatabase
 from regen.core.base import Answer
 from regen.core.scenario import FSM, AbstractState, PredicateCall, Stage, StateRef
+from regen.driving.assets import database
 from regen.driving.grounding.feasibility import (
     available,
     contradiction,
@@ -40,7 +41,7 @@ from regen.driving.grounding.feasibility import (
     never_holds,
     top_speed,
 )
-from regen.driving.grounding.rules import choose_map
+from regen.driving.grounding.rules import choose_map, implied
 from regen.driving.primitives import get, is_state_only
 from regen.driving.primitives.base import SPEED_CLASSES
 from regen.driving.world.actors import RoleChoice
@@ -180,7 +181,7 @@ def chosen_roles(answer: Any, options: list[RoleOptions], defaults: list[RoleCho
     for o, d in zip(options, defaults, strict=True):
         prim, loc, speed = pick(answer, o, d)
         out.append(RoleChoice(name=d.name, asset=d.asset, primitive=prim, location=loc, speed_class=speed,
-                              properties=dict(d.properties), fixed=d.fixed))
+                              properties=implied(prim, d.asset, dict(d.properties), database()), fixed=d.fixed))
     return out
 
 

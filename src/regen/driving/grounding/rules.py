@@ -23,7 +23,7 @@ from regen.core.scenario import FSM, Entity, Scenario
 from regen.driving.assets import database as driving_database
 from regen.driving.grounding.fsm_rules import CAUSES_ADDED, rule_based_fsm, with_cause_states
 from regen.driving.grounding.placement import solve
-from regen.driving.primitives import for_actor, get, is_state_only
+from regen.driving.primitives import find, for_actor, get, is_state_only
 from regen.driving.primitives.base import SPEED_CLASSES, Placed
 from regen.driving.world.actors import PARKED_ASSETS, PEDESTRIAN_ASSETS, ActorSpec, RoleChoice
 from regen.driving.world.egos import EGO_SIZE, EgoTemplate, on_junction_map, template_for
@@ -153,7 +153,19 @@ def _property_problems(r: RoleChoice, db: AssetDatabase) -> list[str]:
         if states is not None and val not in states:
             problems.append(f"{r.name}: the graph's {key} = {val!r} cannot be honored: {key} is one of "
                             f"{', '.join(states)}")
+    spec_p = find(r.primitive) if r.primitive else None
+    for key, val in (spec_p.implies.items() if spec_p else ()):
+        if key in r.properties and r.properties[key] != val:
+            problems.append(f"{r.name}: the graph's {key} = {r.properties[key]!r} cannot be honored: "
+                            f"{r.primitive} means {key} = {val}")
     return problems
+
+
+def implied(primitive: str, asset: str, props: dict[str, str], db: AssetDatabase) -> dict[str, str]:
+    """``props`` with the states ``primitive`` implies (siren on) where the graph names none."""
+    spec = find(primitive) if primitive else None
+    extra = {k: v for k, v in (spec.implies.items() if spec else ()) if k in db.parameters_of(asset)}
+    return {**extra, **props}
 
 
 def _graph_role(name: str, asset: str, props: dict[str, str], db: AssetDatabase,
@@ -186,7 +198,7 @@ def _graph_role(name: str, asset: str, props: dict[str, str], db: AssetDatabase,
     fixed = frozenset(k for k, v in (("behavior", prim), ("start_location", loc), ("target_speed", speed))
                       if v is not None)
     role = RoleChoice(name=name, asset=asset, primitive=primitive, location=location,
-                      speed_class=speed or "moderate", properties=props, fixed=fixed)
+                      speed_class=speed or "moderate", properties=implied(primitive, asset, props, db), fixed=fixed)
     problems = _property_problems(role, db)
     if problems:
         raise UngroundableError("; ".join(problems))

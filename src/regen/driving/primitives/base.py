@@ -116,6 +116,9 @@ class Primitive:
     # ('' : it stands), and whether OpenSCENARIO replays its recorded path as a trajectory
     scenic_behavior: str = ""
     xosc_trajectory: bool = False
+    # property states the motion itself implies (an emergency vehicle passing through has its
+    # siren on): the graph offers only these values with this primitive
+    implies: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}), hash=False, compare=False)
     # actors of other Scenic classes than its usual users, by class ('Car'): how they move by it
     # (WalkRoute takes pedestrian-only actions, so a Car follows the route with FollowRoute)
     by_class: Mapping[str, ClassMotion] = field(default_factory=lambda: MappingProxyType({}),
