@@ -143,3 +143,16 @@ def test_named_states_take_the_longest_phrase_and_must_be_states(tmp_path: Path)
     data["properties"]["siren"]["named_by"] = {"wailing": ["siren wails"]}
     with pytest.raises(AssetDatabaseError, match="named_by names wailing, which are not states"):
         load_database(_write(tmp_path, data))
+
+
+def test_behavior_phrases_name_a_motion_only_the_asset_can_make_and_ambiguity_binds_nothing():
+    from regen.driving.assets import database as driving
+
+    db = driving()
+    assert db.named_state("child", "behavior", "a child runs across the road") == ("cross_the_road", "runs across")
+    assert db.named_state("sedan", "behavior", "a car waits for a child crossing the road") is None  # the child's
+    event = "a tow truck pulls over to help a broken-down car"  # two actors' motions in one event
+    assert db.named_states("tow_truck", "behavior", event) == {"stationary": "broken-down", "pull_over": "pulls over"}
+    assert db.named_state("tow_truck", "behavior", event) is None
+    # a phrase inside a longer one names nothing of its own: 'turns red' is not also 'red'
+    assert db.named_states("traffic_light", "light_state", "the traffic light turns red") == {"turns_red": "turns red"}

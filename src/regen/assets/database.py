@@ -300,22 +300,32 @@ class AssetDatabase(Model):
         states = self.properties[prop].states
         return None if states is None else list(states)
 
-    def named_state(self, asset: str, prop: str, event: str) -> tuple[str, str] | None:
-        """The state of ``prop`` that ``event``'s words name for ``asset`` as ``(state, phrase)``
-        (the longest phrase found, whole words, any case), or None."""
+    def named_states(self, asset: str, prop: str, event: str) -> dict[str, str]:
+        """Every state of ``prop`` that ``event``'s words name for ``asset``, as {state: phrase}:
+        whole words, any case; a phrase inside a longer one found ('red' in 'turns red') does
+        not count. Several states: the words name states of several actors ('a tow truck pulls
+        over to help a broken-down car')."""
         if prop not in self.parameters_of(asset):
-            return None
+            return {}
         text = " ".join(event.lower().split())
         # a motion the asset cannot make is another actor's ('a car waits for a child crossing
         # the road': crossing is the child's)
         able = set(self.assets[asset].behaviors) if prop == "behavior" else None
-        found = [(len(ph), st, ph) for st, phrases in self.properties[prop].named_by.items()
+        found = [(m.start(), m.end(), st, ph) for st, phrases in self.properties[prop].named_by.items()
                  if able is None or st in able
-                 for ph in phrases if re.search(rf"\b{re.escape(ph.lower())}\b", text)]
-        if not found:
-            return None
-        _, state, phrase = max(found)
-        return state, phrase
+                 for ph in phrases for m in re.finditer(rf"\b{re.escape(ph.lower())}\b", text)]
+        out: dict[str, str] = {}
+        for a0, a1, st, ph in sorted(found, key=lambda f: f[0] - f[1]):  # longest first
+            if any(b0 <= a0 and a1 <= b1 and (b0, b1) != (a0, a1) for b0, b1, _, _ in found):
+                continue
+            out.setdefault(st, ph)
+        return out
+
+    def named_state(self, asset: str, prop: str, event: str) -> tuple[str, str] | None:
+        """The one state of ``prop`` that ``event``'s words name for ``asset`` as
+        ``(state, phrase)`` (:meth:`named_states`), or None: none, or several (ambiguous)."""
+        named = self.named_states(asset, prop, event)
+        return next(iter(named.items())) if len(named) == 1 else None
 
     def parameters_of(self, asset: str) -> list[str]:
         """Properties of an asset, behaviors' parameters included (each once, in order)."""

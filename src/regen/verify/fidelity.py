@@ -75,17 +75,22 @@ def check_rules(scenario: Scenario, db: AssetDatabase, *, robot: str | Sequence[
                 missing.append(f"'{event}' names a {m.key.replace('_', ' ')}")
         for e in cast:
             for prop in db.parameters_of(e.asset):
-                hit = db.named_state(e.asset, prop, event)
-                if hit is None:
+                hits = db.named_states(e.asset, prop, event)
+                if not hits:
                     continue
-                state, phrase = hit
-                named.append(f"{e.name}.{prop} = {state}")
                 have = e.properties.get(prop) if prop != "behavior" else (e.behavior or e.properties.get(prop))
+                if have in hits:  # one of the states the words name (others may be another actor's)
+                    named.append(f"{e.name}.{prop} = {have}")
+                    continue
                 track = trace.actors.get(e.name) if trace is not None else None
                 during = set(track.states.get(prop, [])) if track is not None else set()
-                if _explained_by_a_behavior(phrase, cast):
-                    continue  # 'runs the red light': the red light of the runner, not this one's
-                if have is not None and have != state and state not in during:
+                hits = {st: ph for st, ph in hits.items() if not _explained_by_a_behavior(ph, cast)}
+                # 'runs the red light': the red light of the runner, not this one's
+                if len(hits) != 1:
+                    continue  # nothing left, or words naming several actors' states: no verdict
+                ((state, phrase),) = hits.items()
+                named.append(f"{e.name}.{prop} = {state}")
+                if have is not None and state not in during:
                     wrong.append(f"'{phrase}' names {prop} = {state}, {e.name} has {prop} = {have}")
     if missing or wrong:
         return Fidelity(status="unfaithful", named=named, shown=shown,

@@ -1,6 +1,6 @@
 import pytest
 
-from regen.driving.primitives.pull_over import PULL_LENGTH, curb_d
+from regen.driving.primitives.pull_over import curb_d, pull_length
 from regen.driving.world.egos import EGO_SIZE
 
 
@@ -15,7 +15,7 @@ def test_car_ahead_pulls_over_to_the_curb_shortly_before_the_ego_reacts(ground, 
     assert 6.0 - 0.1 <= gap <= 30.0 + 0.1  # ahead of the ego when it pulls over
     d = curb_d(t, p.width)
     assert abs(d) > abs(t.frame.lane_d(t.ego_lane)) + t.frame.lane_width / 2  # out of the ego's lane
-    assert p.lane_change is not None and p.lane_change.d_to == d and p.lane_change.length == PULL_LENGTH
+    assert p.lane_change is not None and p.lane_change.d_to == d and p.lane_change.length == pull_length(prm["v"])
     assert p.route[-1][1] == pytest.approx(d)
     (_, v0, _), (brake, v1, level) = p.schedule
     assert v0 == prm["v"] and v1 == 0.0 and 0 < level < 1 and brake > prm["t"]

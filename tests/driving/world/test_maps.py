@@ -43,3 +43,13 @@ def test_every_map_loads_in_scenic_with_the_promised_shape(name):
         assert len(net.intersections) == 0
         ys = sorted(round(float(lane.centerline.points[0][1]), 2) for lane in net.lanes)
         assert ys == [-5.25, -1.75, 1.75, 5.25]
+
+
+def test_every_database_pedestrian_walks_and_is_drawn_as_one():
+    from regen.driving.assets import database
+    from regen.driving.world.actors import PEDESTRIAN_ASSETS, actor_category, scenic_class
+
+    db = database()
+    assert set(db.categories["pedestrians"]) == PEDESTRIAN_ASSETS
+    for a in PEDESTRIAN_ASSETS:
+        assert actor_category(a, db.assets[a].kind) == "pedestrian" and scenic_class(a, db.assets[a].kind) == "Pedestrian"

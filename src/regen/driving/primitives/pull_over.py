@@ -19,7 +19,8 @@ from regen.driving.world.locations import roadside_d
 from regen.driving.world.placement import DM, PlacementModel
 from regen.driving.world.plan import ActorPlan
 
-PULL_LENGTH = 30.0  # [m] travelled while it moves over to the curb (across up to two lanes)
+PULL_TIME = 2.5  # [s] it takes to move over to the curb (across up to two lanes), whatever its speed
+PULL_LENGTH = (12.0, 30.0)  # [m] least and most it travels meanwhile
 BRAKE_SHARE = 0.7  # it brakes once this share of the move is done, so it stops straight at the curb
 BRAKE_LEVEL = 0.4  # a firm, not an emergency, stop
 
@@ -27,6 +28,11 @@ BRAKE_LEVEL = 0.4  # a firm, not an emergency, stop
 def curb_d(ego: EgoTemplate, width: float) -> float:
     """Lateral offset [m] where it stops: the curb edge of the right road side, as a parked car."""
     return roadside_d(ego, "parked_car", width, "right")
+
+
+def pull_length(v: float) -> float:
+    """[m] travelled while it moves over at speed ``v`` [m/s]: :data:`PULL_TIME` of driving."""
+    return min(PULL_LENGTH[1], max(PULL_LENGTH[0], v * PULL_TIME))
 
 
 def _constrain(m: PlacementModel, a: ActorSpec, speeds: tuple[float, float]) -> None:
@@ -53,11 +59,12 @@ def _plan(placed: Placed) -> ActorPlan:
     d = curb_d(placed.ego, placed.actor.size[1])
     s, v, t = p.get("s", 0.0), p.get("v", 0.0), p.get("t", 0.0)
     s_change = round(s + v * t, 4)
+    length = pull_length(v)
     plan.route = (_lanes.straight(fr, s, s_change, placed.lateral)
-                  + _lanes.straight(fr, s_change + PULL_LENGTH, s_change + _lanes.ROUTE_AHEAD, d))
+                  + _lanes.straight(fr, s_change + length, s_change + _lanes.ROUTE_AHEAD, d))
     assert plan.lane_change is not None
-    plan.lane_change = replace(plan.lane_change, d_to=d, length=PULL_LENGTH)
-    brake = t + BRAKE_SHARE * PULL_LENGTH / max(v, 1.0)
+    plan.lane_change = replace(plan.lane_change, d_to=d, length=length)
+    brake = t + BRAKE_SHARE * length / max(v, 1.0)
     plan.schedule = [(0.0, v, 0.0), (round(brake, 4), 0.0, BRAKE_LEVEL)]
     plan.comment = f"pull_over from {placed.actor.location} to the curb"
     return plan

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 # Assets that walk: they stand on sidewalks, use the walking speed classes, and are Scenic
 # Pedestrians.
-PEDESTRIAN_ASSETS = frozenset({"adult", "child", "pedestrian_group"})
+PEDESTRIAN_ASSETS = frozenset({"adult", "child", "pedestrian_group", "police_officer", "road_worker"})
 # Static objects that are vehicles: a Scenic Car, parked half on the curb.
 PARKED_ASSETS = frozenset({"parked_car"})
 # Assets that are traffic lights: no footprint that collides, a light state the ego must obey.
