@@ -10,7 +10,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import TYPE_CHECKING, Any, Literal, Union, get_args
+from typing import TYPE_CHECKING, Any, Union, get_args
 
 from pydantic import Field, create_model
 
@@ -21,6 +21,7 @@ from regen.core.words import name_words
 from regen.errors import ConfigError
 from regen.expand.answers import EdgeVerdict, EntitySelection, EventProposal, YesNo
 from regen.expand.calibration import ANSWER_PREFIX, threshold_for
+from regen.expand.choices import Choices, choice_models, only_names
 from regen.expand.dedupe import normalize, similar
 from regen.llm.client import LLM
 from regen.templates import render
@@ -354,51 +355,6 @@ def property_choices(domain: Domain, asset: str, behavior: Behavior | None = Non
     return domain_view(domain).property_choices(asset, behavior)
 
 
-Choices = tuple[str | None, dict[str | None, dict[str, list[str]]]]  # DomainBackend.property_choices
-
-
-def _choice_models(options: dict[str, tuple[str, list[str]]], choices: Choices | None) -> list[Any]:
-    """One pydantic model per consistent combination family: the key property fixed to one value,
-    the properties that depend on it restricted to (or, when absent, without) their allowed
-    values; independent properties free. Without dependencies, one model."""
-    def model(name: str, fixed: dict[str, list[str]]) -> Any:
-        fields = {p: (Literal[tuple(v)], ...) for p, v in fixed.items()}
-        return create_model(name, __base__=Answer, **fields)
-
-    free = {p: list(v) for p, (_, v) in options.items()}
-    if choices is not None and choices[0] is None:  # restrictions whatever the other values
-        fixed = {p: [v for v in vals if v in choices[1][None].get(p, vals)] or vals
-                 for p, vals in free.items()}
-        return [model("Values", fixed)]
-    if choices is None or choices[0] not in options:
-        return [model("Values", free)]
-    key, per = choices
-    dependent = {p for allowed in per.values() for p in allowed}
-    out = []
-    for value in options[key][1]:
-        allowed = per.get(value)
-        fixed: dict[str, list[str]] = {key: [value]}
-        for p, vals in free.items():
-            if p == key:
-                continue
-            if p not in dependent or allowed is None:
-                fixed[p] = vals
-            elif p in allowed:
-                fixed[p] = [v for v in vals if v in allowed[p]] or vals
-        out.append(model(f"Values{len(out)}", fixed))
-    return out
-
-
-def only_names(role: str, options: dict[str, tuple[str, list[str]]]) -> bool:
-    """Whether a role sentence says nothing beyond the names of the offered properties and
-    values ("drive_forward (siren = off)"): no role for the values to agree with."""
-    names = {w for p, (_, values) in options.items() for n in (p, *values) for w in name_words(n)}
-    words = [w for w in name_words(role) if w not in _FILLER]
-    return not words or set(words) <= names
-
-
-_FILLER = frozenset({"it", "is", "are", "be", "to", "and", "at", "in", "on", "off", "with", "its", "this",
-                     "that", "does", "do", "has", "ha", "entity", "=", "value"})
 
 
 def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, entity: str,
@@ -421,7 +377,7 @@ def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, en
         desc, values = options[p]
         ruled[p] = {v: f'the event says "{phrase}", which names {p} = {state}' for v in values if v != state}
         options = {**options, p: (desc, [state])}
-    variants = _choice_models(options, choices)
+    variants = choice_models(options, choices)
     if len(variants) == 1:  # the prompt offers what the schema allows (a named behavior's starts)
         fields = variants[0].model_fields
         options = {p: (d, list(get_args(fields[p].annotation))) for p, (d, _) in options.items() if p in fields}
