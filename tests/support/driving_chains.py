@@ -50,6 +50,8 @@ FEASIBLE: dict[str, list[CausePath]] = {
               "start_location": ["behind_adjacent_lane"], "target_speed": ["fast"]})),
         chain("slow_down", "the car ahead pulls over to pick up a passenger", ("sedan",
               {"behavior": ["pull_over"], "start_location": ["ahead_same_lane"], "target_speed": ["moderate"]})),
+        chain("slow_down", "traffic congestion ahead", ("traffic_queue", {"behavior": ["drive_forward"],
+              "start_location": ["ahead_same_lane"], "target_speed": ["slow"]})),
         chain("slow_down", "a tow truck pulls over ahead", ("tow_truck",
               {"behavior": ["pull_over"], "start_location": ["ahead_same_lane"], "target_speed": ["slow"]})),
         chain("slow_down", "a person waits at the curb to hail a taxi", ("adult",

@@ -40,6 +40,9 @@ class AssetSpec(Model):
     aliases: list[str] = Field(default_factory=list)  # other names a model may use ('pedestrian')
     properties: list[str] = Field(default_factory=list)
     behaviors: list[str] = Field(default_factory=list)
+    #: members of a group asset, which moves as one body of ``size`` (a queue of cars): pictures
+    #: draw it as that many
+    count: int = Field(default=1, ge=1, le=12)
 
 
 class PropertySpec(Model):

@@ -236,3 +236,24 @@ def test_empty_trace_is_a_clear_error(tmp_path):
     scenario = _scenario({"ego": "sedan"}, 1)
     with pytest.raises(ConfigError, match="no steps"):
         render.render_scenario(scenario, Trace(dt=DT, times=[], actors={}), _verdict([None]), tmp_path)
+
+
+def test_a_queue_is_drawn_as_its_cars_one_behind_the_other(straight_map, tmp_path):
+    from scipy import ndimage
+
+    from regen.driving.render.actors import VEHICLE
+
+    scenario, trace = _run(straight_map, seconds=1.0)
+    n = len(trace.times)
+    trace.actors = {"ego": trace.actors["ego"],
+                    "traffic_queue1": ActorTrack(asset="traffic_queue", length=15.5, width=1.9, x=[10.0] * n,
+                                                 y=[-1.75] * n, heading=[0.0] * n)}
+    scenario = _scenario({"ego": "sedan", "traffic_queue1": "traffic_queue"}, 2)
+    out = render.render_scenario(scenario, trace, _verdict([0.0, 0.5]), tmp_path)
+    frame = _frames(out[ANIMATION])[0]
+    view = choose_view(actors_from_trace(trace))
+    (x0, y0), (x1, _) = view.to_px(10.0 - 8.0, -1.75), view.to_px(10.0 + 8.0, -1.75)
+    window = frame[int(y0) - 6: int(y0) + 6, int(min(x0, x1)): int(max(x0, x1))]
+    assert _mask(window, VEHICLE, 0).sum() > 0
+    _, screens = ndimage.label(_mask(window, (30, 36, 48), 0).any(axis=0))  # one windscreen per car
+    assert screens == 3

@@ -68,6 +68,7 @@ class Actor:
     heading: np.ndarray  # [rad]
     speed: np.ndarray  # [m/s]
     states: dict[str, list]
+    count: int = 1  # a group asset (a queue of cars) is drawn as this many, one behind the other
 
     def state(self, key: str, i: int):
         seq = self.states.get(key)
@@ -135,8 +136,9 @@ def actors_from_trace(trace: Trace) -> list[Actor]:
         if length <= 0 or width <= 0:
             spec = db.assets.get(track.asset) if db is not None else None
             length, width = (spec.size[0], spec.size[1]) if spec else _DEFAULT_SIZE.get(cat, (4.5, 2.0))
+        spec = db.assets.get(track.asset) if db is not None else None
         out.append(Actor(name, cat, float(length), float(width), x, y, heading, speed,
-                          dict(track.states)))
+                         dict(track.states), count=spec.count if spec is not None else 1))
     out.sort(key=lambda a: _DRAW_ORDER.get(a.category, 2))
     return out
 
@@ -205,6 +207,17 @@ def _overlap(a, b) -> bool:
 
 
 def _draw_vehicle(f: Canvas, a: Actor, i: int, t: float) -> None:
+    if a.count > 1:  # a queue: its members bumper to bumper (1 m apart) along its body
+        unit = (a.length - (a.count - 1)) / a.count
+        x, y, h = float(a.x[i]), float(a.y[i]), float(a.heading[i])
+        for k in range(a.count):
+            along = -a.length / 2 + unit / 2 + k * (unit + 1.0)
+            cx, cy = to_world(x, y, h, along, 0.0)
+            member = Actor(a.name, a.category, unit, a.width, a.x.copy(), a.y.copy(), a.heading, a.speed,
+                           a.states)
+            member.x[i], member.y[i] = cx, cy
+            _draw_vehicle(f, member, i, t)
+        return
     x, y, h = float(a.x[i]), float(a.y[i]), float(a.heading[i])
     s = f.view.scale
     length, width = max(a.length, 8 / s), max(a.width, 5 / s)  # never smaller than a few pixels
