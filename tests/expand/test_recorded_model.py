@@ -70,9 +70,9 @@ def test_expansion_replays_recorded_offline_model_answers(name: str) -> None:
         assert power == {"off"}
     if name == "expand_driving":
         # the event's words name the light's state: it turns red as the ego comes near
-        light = next(n for n in graph.nodes.values() if n.kind == "property" and n.property == "light_state"
-                     and n.status == "accepted")
-        assert light.value == "turns_red"
+        (light,) = [e for p in paths if "turns red" in p.events[0] for e in p.entities
+                    if e.asset == "traffic_light"]
+        assert light.properties["light_state"] == ["turns_red"]
     if name in ("expand_driving", "expand_manipulation"):
         assert paths, "at least one simulatable cause chain"
         for p in paths:
