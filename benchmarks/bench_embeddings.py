@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
+from regen.embeddings import SentenceEncoder, mean_pool_normalize
 from regen.evaluation.diversity import self_bleu
-from regen.evaluation.embeddings import SentenceEncoder, mean_pool_normalize
 from regen.evaluation.textsets import bundled_sets, load_text_set
 
 

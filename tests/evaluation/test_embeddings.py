@@ -7,9 +7,9 @@ import sys
 import numpy as np
 import pytest
 
+from regen import embeddings
+from regen.embeddings import EmbeddingModelError, SentenceEncoder, mean_pool_normalize
 from regen.errors import DependencyNotInstalled
-from regen.evaluation import embeddings
-from regen.evaluation.embeddings import EmbeddingModelError, SentenceEncoder, mean_pool_normalize
 
 
 def test_mean_pool_ignores_padding():

@@ -97,3 +97,30 @@ def test_names_overlap_the_longest_wins_and_the_robot_names_nothing() -> None:
     implied = [m.asset for m in db.implied_by_states("the lights at the crossing turn red")]
     assert implied == ["traffic_light"]  # a state only a traffic light has
     assert db.implied_by_states("traffic is jammed") == []  # one word names no state-owner
+
+
+def test_a_cause_naming_an_asset_by_a_close_paraphrase_grounds_it_and_says_how() -> None:
+    # the real sentence-embedding model (installed with the eval extra, as setup and CI do)
+    mop = "mopping the floor"
+    model = ScriptedModel(causes={DOOR: [mop]}, entities={mop: ["trash_can"]},
+                          part_of={"trash_can": False})
+    g = _expand("manipulation", model)
+    node = _node(g, "mop", "entity")
+    assert node.status == "accepted" and node.history[0].by == "database"
+    assert "close paraphrase: 'mopping floor' ~ 'floor mop'" in node.history[0].reason
+    assert _node(g, "trash_can", "entity").status == "rejected"
+
+
+def test_paraphrases_speak_only_where_no_name_does_and_above_the_threshold() -> None:
+    from regen.embeddings import default_encoder
+
+    enc = default_encoder()
+    manip, driving = database_of("manipulation"), database_of("driving")
+    para = lambda db, t, **kw: [m.asset for m in db.paraphrased_in(t, enc, exclude=["robot", "ego-vehicle"], **kw)]  # noqa: E731
+    assert para(manip, "a cleaning cloth is needed") == []  # a cloth is no clothing (0.76 < 0.80)
+    assert para(manip, "a cleaning cloth is needed", threshold=0.7) == ["clothes"]  # looser, it would be
+    assert para(driving, "a tree blocks the road") == ["barrier"]  # 'blocks road' ~ 'road block'
+    assert para(driving, "the police car blocks the road") == []  # a name speaks: it is what the car does
+    assert para(driving, "the ego-vehicle brakes") == []  # the robot's own words name nothing
+    # an irregular plural is a name, not a paraphrase
+    assert [m.asset for m in manip.named_in("the children are watching a cartoon")] == ["child"]

@@ -96,3 +96,18 @@ def test_a_state_phrase_of_another_actors_primitive_does_not_bind_the_light() ->
     red = chain("stop_in_intersection", "the light turns red",
                 ("traffic_light", {"light_state": ["green"]}))
     assert _fidelity(red).status == "unfaithful"  # no one runs it: the light itself must turn red
+
+
+def test_a_cause_named_by_a_paraphrase_must_be_shown_by_that_asset() -> None:
+    from regen.core.scenario import Entity
+
+    manip = domains.make("manipulation")
+    s = ground_rule_based(chain("stop_abruptly", "mopping the floor",
+                                ("traffic_cone", {"start_location": ["ahead_same_lane"]})))
+    db = manip.database()
+    # the cast: a trash can where the words mean a floor mop
+    s = s.model_copy(update={"entities": [Entity(name="trash_can1", asset="trash_can", kind="object")]})
+    f = check_rules(s, db, robot="robot")
+    assert f.status == "unfaithful"
+    assert "'mopping floor', a close paraphrase of a floor mop" in f.reason
+    assert check_rules(s, db, robot="robot", paraphrases=False).status == "undecided"

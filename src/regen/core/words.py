@@ -12,8 +12,17 @@ import re
 STOPWORDS = frozenset({"a", "an", "the", "some", "one", "two", "three", "its", "their", "his", "her", "own"})
 
 
+#: English plurals no ending rule undoes.
+IRREGULAR_PLURALS = {"children": "child", "people": "person", "men": "man", "women": "woman",
+                     "feet": "foot", "geese": "goose", "mice": "mouse", "teeth": "tooth",
+                     "policemen": "policeman", "policewomen": "policewoman"}
+
+
 def singular(word: str) -> str:
-    """``word`` without a plural ending (a rule, not a dictionary: 'benches' -> 'bench')."""
+    """``word`` without a plural ending (a rule and a few irregular plurals, not a dictionary:
+    'benches' -> 'bench', 'children' -> 'child')."""
+    if word in IRREGULAR_PLURALS:
+        return IRREGULAR_PLURALS[word]
     if len(word) > 4 and word.endswith(("ches", "shes", "xes", "sses")):
         return word[:-2]
     if len(word) > 3 and word.endswith("s") and not word.endswith(("ss", "us", "is")):

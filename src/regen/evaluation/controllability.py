@@ -69,7 +69,7 @@ def controllability(scenarios: list[ScenarioRecord], encoder=None, *,
     for s in usable:
         by_behavior.setdefault(s.behavior, []).append(s)
     if embeddings and encoder is None and any(len(v) > 1 for v in by_behavior.values()):
-        from regen.evaluation.embeddings import default_encoder
+        from regen.embeddings import default_encoder
 
         encoder = default_encoder()
     pairs: list[ScenarioPair] = []

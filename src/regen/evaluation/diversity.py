@@ -58,7 +58,7 @@ def embedding_diversity_of_vectors(embeddings: np.ndarray) -> float:
 def embedding_diversity(texts: Sequence[str], encoder=None) -> float:
     """Embedding diversity of ``texts`` with all-MiniLM-L6-v2 (see module doc)."""
     if encoder is None:
-        from regen.evaluation.embeddings import default_encoder
+        from regen.embeddings import default_encoder
 
         encoder = default_encoder()
     return embedding_diversity_of_vectors(encoder.encode(list(texts)))
@@ -162,7 +162,7 @@ def compare_sets(
         small = [k for k, v in sets.items() if len(v) < 2]
         raise ConfigError(f"each set needs at least two texts to measure diversity; too small: {small}")
     if embeddings and encoder is None:
-        from regen.evaluation.embeddings import default_encoder
+        from regen.embeddings import default_encoder
 
         encoder = default_encoder()
     results = []

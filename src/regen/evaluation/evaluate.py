@@ -79,7 +79,7 @@ def evaluate(
             usable[s.name] = s.texts
     needs_encoder = settings.embeddings and (usable or any(s.run for s in sets))
     if needs_encoder and encoder is None:
-        from regen.evaluation.embeddings import default_encoder
+        from regen.embeddings import default_encoder
 
         say("loading the embedding model")
         encoder = default_encoder()

@@ -80,7 +80,7 @@ def bundled_sets() -> dict[str, str]:
     """Names of the bundled example text sets -> their description (first comment line)."""
     out = {}
     for f in sorted((resources.files("regen.evaluation") / "data").iterdir(), key=lambda p: p.name):
-        if f.name.endswith(".txt") and f.name != "minilm_vocab.txt":
+        if f.name.endswith(".txt"):
             first = f.read_text(encoding="utf-8").splitlines()[0]
             out[f.name[:-4]] = first.lstrip("# ").strip()
     return out

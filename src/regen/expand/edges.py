@@ -18,6 +18,7 @@ from regen.assets.database import MATCH_THRESHOLD, AssetDatabase
 from regen.core.base import Answer
 from regen.core.behavior import Behavior
 from regen.core.words import name_words
+from regen.embeddings import optional_encoder
 from regen.errors import ConfigError
 from regen.expand.answers import EdgeVerdict, EntitySelection, EventProposal, YesNo
 from regen.expand.calibration import ANSWER_PREFIX, threshold_for
@@ -226,9 +227,10 @@ def _weigh_events(llm: LLM, domain: DomainView, chain: list[str], candidates: li
 def named_entities(db: AssetDatabase, domain: Domain, event: str, *, own: frozenset[str] = frozenset()
                    ) -> dict[str, str]:
     """Asset -> why, for the assets ``event``'s words name (:meth:`AssetDatabase.named_assets`,
-    the robot's own name excluded); ``own``: the robot's task objects, never named here."""
+    the robot's own name excluded, close paraphrases included when the sentence-embedding model
+    is installed); ``own``: the robot's task objects, never named here."""
     view = domain_view(domain)
-    return db.named_assets(event, robot=view.robot_names, own=own)
+    return db.named_assets(event, robot=view.robot_names, own=own, encoder=optional_encoder())
 
 
 def judge_entity(llm: LLM, db: AssetDatabase, domain: Domain, event: str, asset: str):

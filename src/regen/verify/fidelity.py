@@ -4,8 +4,9 @@ The FSM monitor says whether the scenario played out; this says whether what pla
 the cause in the scenario's title. Before a scenario is called verified, its entities, their
 behaviors and states are compared with what each cause event's words name:
 
-1. every asset the text names (an id, alias or description phrase, or a state only that asset
-   has: :meth:`~regen.assets.database.AssetDatabase.named_assets`) is played by an entity that
+1. every asset the text names (an id, alias or description phrase, a close paraphrase found by
+   the sentence-embedding model, or a state only that asset has:
+   :meth:`~regen.assets.database.AssetDatabase.named_assets`) is played by an entity that
    answers to that name (a 'car' may be a police car, never a traffic cone);
 2. every state the text names for an entity's property (``named_by`` phrases of the database:
    an ambulance let pass has its siren on) is the state that entity has;
@@ -17,7 +18,7 @@ the scenario shows. Where the text names no asset, rules cannot decide: a yes/no
 (:func:`ask_model`, at grounding) decides and is recorded as such; without a model the fidelity
 is ``undecided`` and the verdict stays what the monitor said.
 
-Imports: the shared core, assets and llm; no domain.
+Imports: the shared core, embeddings, assets and llm; no domain.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from typing import TYPE_CHECKING, Literal
 from regen.core.base import Answer
 from regen.core.verdict import Fidelity, Verdict
 from regen.core.words import name_words
+from regen.embeddings import optional_encoder
 from regen.templates import render
 
 if TYPE_CHECKING:
@@ -52,11 +54,14 @@ def _explained_by_a_behavior(phrase: str, cast: list[Entity]) -> bool:
 
 
 def check_rules(scenario: Scenario, db: AssetDatabase, *, robot: str | Sequence[str] = "",
-                own: frozenset[str] = frozenset(), trace: Trace | None = None) -> Fidelity:
+                own: frozenset[str] = frozenset(), trace: Trace | None = None,
+                paraphrases: bool = True) -> Fidelity:
     """What the cause events' words name against what ``scenario`` shows (rules only).
     ``robot``: the domain's words for the robot (they name no asset); ``own``: the assets of
     the robot's own task; ``trace``: the run, whose recorded states count too (a light that
-    starts red and turns green shows green)."""
+    starts red and turns green shows green); ``paraphrases``: also assets named by a close
+    paraphrase (the sentence-embedding model, when installed), as grounding selects them."""
+    encoder = optional_encoder() if paraphrases else None
     cast = [e for e in scenario.entities if e.kind != "robot" and e.asset not in own
             and e.asset in db.assets]
     shown = [_shown(e) for e in cast]
@@ -69,10 +74,14 @@ def check_rules(scenario: Scenario, db: AssetDatabase, *, robot: str | Sequence[
     missing: list[str] = []
     wrong: list[str] = []
     for event in causes:
-        for m in db.named_in(event, exclude=robot, skip=own):  # a state alone names no entity here
+        by_name = db.named_in(event, exclude=robot, skip=own)  # a state alone names no entity here
+        if encoder is not None:
+            by_name += db.paraphrased_in(event, encoder, exclude=robot, skip=own)
+        for m in by_name:
             named.append(m.asset)
             if not any(e.asset == m.asset or db.answers_to(e.asset, m.key) for e in cast):
-                missing.append(f"'{event}' names a {m.key.replace('_', ' ')}")
+                said = f"'{m.phrase}', a close paraphrase of " if m.phrase else ""
+                missing.append(f"'{event}' names {said}a {m.key.replace('_', ' ')}")
         for e in cast:
             for prop in db.parameters_of(e.asset):
                 hits = db.named_states(e.asset, prop, event)

