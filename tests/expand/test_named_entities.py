@@ -124,3 +124,17 @@ def test_paraphrases_speak_only_where_no_name_does_and_above_the_threshold() -> 
     assert para(driving, "the ego-vehicle brakes") == []  # the robot's own words name nothing
     # an irregular plural is a name, not a paraphrase
     assert [m.asset for m in manip.named_in("the children are watching a cartoon")] == ["child"]
+
+
+def test_a_motion_named_without_its_actor_grounds_the_first_asset_that_makes_it() -> None:
+    db = database_of("driving")
+    robot = ["ego-vehicle", "the vehicle"]
+    got = db.named_assets("wrong-way driver ahead", robot=robot)
+    assert list(got) == ["sedan"] and "names a motion and no actor: wrong-way" in got["sedan"]
+    assert db.named_assets("the ego-vehicle turns left", robot=robot) == {}  # the robot's own motion
+    assert db.implied_by_motion("a car turns left while a child runs across") == []  # two actors' motions
+    wrong = "wrong-way driver ahead"
+    model = ScriptedModel(causes={STOP: [wrong]}, entities={wrong: ["wrong-way driver"]})
+    g = _expand("driving", model)
+    sedan = _node(g, "sedan", "entity")
+    assert sedan.status == "accepted" and sedan.history[0].by == "database"

@@ -150,7 +150,7 @@ class AssetMatch(Model):
 
     asset: str
     similarity: float  # 0-1, see :func:`similarity`
-    via: Literal["id", "alias", "description", "state", "paraphrase"]
+    via: Literal["id", "alias", "description", "state", "motion", "paraphrase"]
     key: str  # the id, alias or description phrase that matched
     phrase: str = ""  # for a paraphrase: the words of the text that matched ``key``
 
@@ -320,11 +320,40 @@ class AssetDatabase(Model):
                                       key=f"{named[1]} ({prop} = {named[0]})"))
         return out
 
+    def named_motions(self, text: str, *, robot: str | Sequence[str] = "") -> dict[str, str]:
+        """Every motion (a ``behavior`` state) ``text``'s words name for some asset, as
+        {motion: phrase} (:meth:`named_states` over the database's assets); a motion whose
+        subject is the robot ('the ego-vehicle turns left', ``robot``'s words) is its own."""
+        if "behavior" not in self.properties:
+            return {}
+        plain = _without_robot(text, [robot] if isinstance(robot, str) else list(robot))
+        out: dict[str, str] = {}
+        for a in self.assets:
+            for st, ph in self.named_states(a, "behavior", plain).items():
+                if not re.search(rf"\bitself\s+{re.escape(ph.lower())}", plain):
+                    out.setdefault(st, ph)
+        return out
+
+    def implied_by_motion(self, text: str, *, robot: str | Sequence[str] = "",
+                          skip: frozenset[str] = frozenset()) -> list[AssetMatch]:
+        """The actor of a motion ``text`` names without naming who makes it ('wrong-way driver
+        ahead'): the first asset, in the database's category order, that can make that one
+        motion (the generic member of its kind: a car). Nothing when the words name several
+        motions (several actors) or none (:meth:`named_motions`)."""
+        motions = self.named_motions(text, robot=robot)
+        if len(motions) != 1:
+            return []
+        ((motion, phrase),) = motions.items()
+        able = [a for a in self.entities() if a not in skip and motion in self.assets[a].behaviors]
+        return [AssetMatch(asset=able[0], similarity=1.0, via="motion",
+                           key=f"{phrase} (behavior = {motion})")] if able else []
+
     def named_assets(self, text: str, *, robot: str | Sequence[str] = "",
                      own: frozenset[str] = frozenset(), encoder: Any = None) -> dict[str, str]:
         """Asset -> why, for every asset ``text`` names: by an id, alias or description phrase
         (:meth:`named_in`, the words of ``robot`` excluded), by a state only it has
-        (:meth:`implied_by_states`), or with an ``encoder`` by a close paraphrase
+        (:meth:`implied_by_states`); where none of these names one, by a motion only some assets
+        make (:meth:`implied_by_motion`) or, with an ``encoder``, by a close paraphrase
         (:meth:`paraphrased_in`). ``own``: assets never returned (a task's own object)."""
         out: dict[str, str] = {}
         for m in self.named_in(text, exclude=robot, skip=own):
@@ -332,10 +361,14 @@ class AssetDatabase(Model):
             out[m.asset] = f"the event names it ({what})"
         for m in self.implied_by_states(text, skip=own):
             out.setdefault(m.asset, f"the event names a state only it has: {m.key}")
-        if encoder is not None:
+        if encoder is not None and not out:
             for m in self.paraphrased_in(text, encoder, exclude=robot, skip=own):
                 out.setdefault(m.asset, f"the event names it by a close paraphrase: '{m.phrase}' ~ "
                                         f"'{m.key}' (cosine {m.similarity:.2f} >= {PARAPHRASE_THRESHOLD})")
+        if not out:
+            for m in self.implied_by_motion(text, robot=robot, skip=own):
+                out[m.asset] = (f"the event names a motion and no actor: {m.key}; the first asset "
+                                "of the database that makes it plays it")
         return out
 
     def answers_to(self, asset: str, name: str) -> bool:

@@ -10,7 +10,8 @@ behaviors and states are compared with what each cause event's words name:
    answers to that name (a 'car' may be a police car, never a traffic cone);
 2. every state the text names for an entity's property (``named_by`` phrases of the database:
    an ambulance let pass has its siren on) is the state that entity has;
-3. some entity other than the robot and its task's own objects shows the cause (a door alone
+3. a motion the text names ('wrong-way driver': wrong_way) is one some entity can make;
+4. some entity other than the robot and its task's own objects shows the cause (a door alone
    does not show a pet let in).
 
 A mismatch makes the verdict ``unfaithful`` (not feasible), with what the text names and what
@@ -82,6 +83,12 @@ def check_rules(scenario: Scenario, db: AssetDatabase, *, robot: str | Sequence[
             if not any(e.asset == m.asset or db.answers_to(e.asset, m.key) for e in cast):
                 said = f"'{m.phrase}', a close paraphrase of " if m.phrase else ""
                 missing.append(f"'{event}' names {said}a {m.key.replace('_', ' ')}")
+        motions = db.named_motions(event, robot=robot)
+        if motions and not any(set(motions) & set(db.assets[e.asset].behaviors) for e in cast):
+            said = ", ".join(f"'{ph}' ({m})" for m, ph in motions.items())
+            missing.append(f"'{event}' names a motion, {said}, that nobody in the scenario can make")
+            named.extend(f"behavior = {m}" for m in motions)
+        named.extend(f"{e.asset} making {e.behavior}" for e in cast if e.behavior in motions)  # rules decide
         for e in cast:
             for prop in db.parameters_of(e.asset):
                 hits = db.named_states(e.asset, prop, event)
