@@ -152,7 +152,7 @@ def test_behavior_phrases_name_a_motion_only_the_asset_can_make_and_ambiguity_bi
     assert db.named_state("child", "behavior", "a child runs across the road") == ("cross_the_road", "runs across")
     assert db.named_state("sedan", "behavior", "a car waits for a child crossing the road") is None  # the child's
     event = "a tow truck pulls over to help a broken-down car"  # two actors' motions in one event
-    assert db.named_states("tow_truck", "behavior", event) == {"stationary": "broken-down", "pull_over": "pulls over"}
+    assert db.named_states("tow_truck", "behavior", event) == {"stationary": "broken down", "pull_over": "pulls over"}
     assert db.named_state("tow_truck", "behavior", event) is None
     # a phrase inside a longer one names nothing of its own: 'turns red' is not also 'red'
     assert db.named_states("traffic_light", "light_state", "the traffic light turns red") == {"turns_red": "turns red"}

@@ -54,7 +54,7 @@ def test_a_model_added_entity_that_passes_the_judge_is_kept_after_the_named_one(
 
 
 def test_a_cause_no_asset_can_play_is_unsimulatable_with_the_reason() -> None:
-    speed = "speed enforcement is ahead"
+    speed = "black ice covers the road ahead"  # no asset is ice
     # 'speed camera' is read as the ego's own camera by its name; the judge says it takes no part
     model = ScriptedModel(causes={STOP: [speed]}, entities={speed: ["speed camera", "traffic_cone"]},
                           part_of={"traffic_cone": False, "camera": False})
@@ -64,6 +64,8 @@ def test_a_cause_no_asset_can_play_is_unsimulatable_with_the_reason() -> None:
     why = ev.history[-1].reason
     assert "camera takes no part" in why and "traffic_cone takes no part" in why
     assert not g.paths()
+    police = database_of("driving").named_assets("speed enforcement is ahead", robot="ego-vehicle")
+    assert list(police) == ["police_car"]  # a speed enforcement is the police, by the database
 
 
 def test_a_manipulation_cause_never_takes_the_task_object_for_its_entity() -> None:
@@ -130,7 +132,7 @@ def test_a_motion_named_without_its_actor_grounds_the_first_asset_that_makes_it(
     db = database_of("driving")
     robot = ["ego-vehicle", "the vehicle"]
     got = db.named_assets("wrong-way driver ahead", robot=robot)
-    assert list(got) == ["sedan"] and "names a motion and no actor: wrong-way" in got["sedan"]
+    assert list(got) == ["sedan"] and "names a motion and no actor: wrong way" in got["sedan"]
     assert db.named_assets("the ego-vehicle turns left", robot=robot) == {}  # the robot's own motion
     assert db.implied_by_motion("a car turns left while a child runs across") == []  # two actors' motions
     wrong = "wrong-way driver ahead"

@@ -117,6 +117,6 @@ def test_a_motion_named_without_its_actor_needs_someone_who_makes_it() -> None:
     text = "a wrong-way driver is ahead"
     cone = chain("stop_abruptly", text, ("traffic_cone", {"start_location": ["ahead_same_lane"]}))
     f = _fidelity(cone)
-    assert f.status == "unfaithful" and "'wrong-way' (wrong_way)" in f.reason and "nobody" in f.reason
+    assert f.status == "unfaithful" and "'wrong way' (wrong_way)" in f.reason and "nobody" in f.reason
     car = chain("stop_abruptly", text, ("sedan", {"behavior": ["wrong_way"], "start_location": ["ahead_same_lane"]}))
     assert _fidelity(car).status == "faithful"  # rules decide: the one motion named is made

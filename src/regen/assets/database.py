@@ -16,7 +16,6 @@ from __future__ import annotations
 import json
 import re
 from collections.abc import Sequence
-from difflib import SequenceMatcher
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
@@ -25,9 +24,20 @@ from typing import Any, Literal
 import networkx as nx
 from pydantic import Field, ValidationError, model_validator
 
+from regen.assets.names import (
+    DESCRIPTION_WEIGHT,
+    FUNCTION_WORDS,
+    MATCH_THRESHOLD,
+    PARAPHRASE_THRESHOLD,
+    key_vectors,
+    main_phrases,
+    plain,
+    similarity,
+    without_robot,
+)
 from regen.core.base import Model
 from regen.core.text import UNSAFE, escaped
-from regen.core.words import STOPWORDS, name_words
+from regen.core.words import name_words
 from regen.core.words import surface_words as _surface
 from regen.errors import AssetDatabaseError, ConfigError
 
@@ -64,85 +74,6 @@ class PropertySpec(Model):
 class BehaviorSpec(Model):
     description: str
     parameters: list[str] = Field(default_factory=list)
-
-
-#: Least similarity (0-1) at which a model-written entity name is taken for an asset.
-MATCH_THRESHOLD = 0.75
-#: Descriptions are longer and looser than ids and aliases: their matches count a little less.
-DESCRIPTION_WEIGHT = 0.95
-#: Without a shared head noun, only near-identical spellings count (typos: 'ambulence').
-SPELLING = 0.85
-#: Least cosine (all-MiniLM-L6-v2) between a phrase of a cause text and an asset's id or alias
-#: for the phrase to name that asset ('mopping floor' / 'floor mop': 0.89). Chosen on the tune
-#: half of the bundled fidelity sets (72 texts, 5 of which name no asset by a name or state):
-#: from 0.70 to 0.85 one paraphrase is found and it is a labeled entity (a floor mop); at 0.60
-#: four are right ('enforcement' -> police, 'driver' -> vehicle) and one wrong ('a jogger runs
-#: along the road' -> road assistance, 0.67); a 'cleaning cloth' of the tune half is 0.76 from
-#: 'clothing'. 0.80 keeps a margin above both.
-PARAPHRASE_THRESHOLD = 0.80
-#: Words that begin or end no phrase compared by meaning.
-_FUNCTION_WORDS = frozenset({*STOPWORDS, "in", "on", "at", "of", "to", "for", "from", "by", "with", "and",
-                             "or", "is", "are", "was", "be", "been", "has", "have", "had", "it", "itself",
-                             "into", "onto", "off", "out", "up", "as", "than", "that", "this", "while",
-                             "about", "after", "before", "not", "no", "must", "can", "might", "will"})
-
-_CUT = re.compile(r"[:;,()]|\b(?:with|of|on|in|at|for|from|by|near|under|over|behind|beside|"
-                  r"that|which|who|and|or)\b")
-
-
-# Words after 'the vehicle' that make it another vehicle than the robot ('the vehicle ahead').
-_PLACE_AFTER = ("ahead", "in front", "in the", "in its", "behind", "next", "beside", "parked", "opposite",
-                "oncoming", "to the", "to its", "on the", "at the", "that", "which", "who", "coming", "approaching")
-
-
-def _without_robot(text: str, names: list[str]) -> str:
-    """``text`` with every phrase that names the robot itself blanked (longest first)."""
-    out = " ".join(text.lower().replace("\u2019", "'").split())
-    place = "|".join(re.escape(p) for p in _PLACE_AFTER)
-    for name in sorted((n.lower() for n in names if n.strip()), key=len, reverse=True):
-        pattern = rf"(?<![\w-]){re.escape(name)}(?![\w-])"
-        if name.startswith("the "):  # a definite 'the vehicle' is the robot, unless placed elsewhere
-            pattern += rf"(?!\s+(?:{place})\b)"
-        out = re.sub(pattern, " itself ", out)  # a word no asset is named by
-    return out
-
-
-def _main_phrases(description: str) -> list[str]:
-    """The noun phrases a description names its asset by: the words before the first
-    preposition or participle ('car parked at the roadside' -> 'car'), and after a colon
-    ('emergency vehicle: ambulance' -> 'emergency vehicle', 'ambulance')."""
-    out: list[str] = []
-    for part in description.lower().split(":"):
-        words = name_words(_CUT.split(part.strip(), maxsplit=1)[0])
-        for i, w in enumerate(words[1:], start=1):
-            if w.endswith(("ing", "ed")):  # 'debris lying ...'; a first word is an adjective ('potted')
-                words = words[:i]
-                break
-        if words:
-            out.append(" ".join(words))
-    return out
-
-
-def similarity(name: str, key: str) -> float:
-    """How likely ``name`` means the thing ``key`` names, from 0 to 1 (deterministic).
-
-    Noun phrases are compared by their head noun (the last word): when both have the same head,
-    0.6 plus 0.4 times the share of words they have in common ('watering plant'
-    / 'plant': 0.8; 'coffee cup' / 'cup': 0.8; 'watering can' / 'trash can': 0.73); otherwise
-    only near-identical spellings count ('ambulence' / 'ambulance': 0.89), never a shared
-    modifier ('storage furniture' / 'storage box': 0; 'road' / 'road block': 0).
-    """
-    n, k = name_words(name), name_words(key)
-    if not n or not k:
-        return 0.0
-    if n == k:
-        return 1.0
-    score = 0.0
-    if n[-1] == k[-1]:
-        sn, sk = set(n), set(k)
-        score = 0.6 + 0.4 * len(sn & sk) / len(sn | sk)
-    ratio = SequenceMatcher(None, "".join(n), "".join(k)).ratio()
-    return max(score, ratio if ratio >= SPELLING else 0.0)
 
 
 class AssetMatch(Model):
@@ -221,10 +152,10 @@ class AssetDatabase(Model):
         -> 'cup')."""
         best: AssetMatch | None = None
         top = 0.0
-        names = [name, *(p for p in _main_phrases(name) if p != name.lower())]
+        names = [name, *(p for p in main_phrases(name) if p != name.lower())]
         for aid, spec in self.assets.items():
             keys = [("id", aid), *(("alias", a) for a in spec.aliases)]
-            keys += [("description", d) for d in _main_phrases(spec.description)]
+            keys += [("description", d) for d in main_phrases(spec.description)]
             for via, key in keys:
                 score = max(similarity(n, key) for n in names)
                 score *= DESCRIPTION_WEIGHT if via == "description" else 1.0
@@ -241,7 +172,7 @@ class AssetDatabase(Model):
         calls its robot: 'ego-vehicle', 'the vehicle') name no asset where they occur, unless a
         place follows ('the vehicle ahead' is another one); assets in ``skip`` are never returned. Each match has ``similarity`` 1.0 and the matched name as ``key``.
         """
-        text = _without_robot(text, [exclude] if isinstance(exclude, str) else list(exclude))
+        text = without_robot(text, [exclude] if isinstance(exclude, str) else list(exclude))
         words = name_words(text)
         surface = _surface(text)  # as written: a plural key ('pedestrians') beats a singular one
         blocked: set[int] = set()
@@ -250,7 +181,7 @@ class AssetDatabase(Model):
             if aid in skip:
                 continue
             keys = [("id", aid), *(("alias", a) for a in spec.aliases)]
-            keys += [("description", d) for d in _main_phrases(spec.description) if len(d.split()) > 1]
+            keys += [("description", d) for d in main_phrases(spec.description) if len(d.split()) > 1]
             for rank, (via, key) in enumerate(keys):
                 kw = name_words(key)
                 for i in range(len(words) - len(kw) + 1):
@@ -282,21 +213,21 @@ class AssetDatabase(Model):
         if self.named_in(text, exclude=exclude) or self.implied_by_states(text):
             return []
         names = [exclude] if isinstance(exclude, str) else list(exclude)
-        plain = _without_robot(text, names)
-        words, base = _surface(plain), name_words(plain)
+        blanked = without_robot(text, names)
+        words, base = _surface(blanked), name_words(blanked)
         blocked = {i for i, w in enumerate(base) if w == "itself"}
         grams: list[tuple[int, str]] = []
         for n in (1, 2, 3):
             for i in range(len(words) - n + 1):
                 span = range(i, i + n)
-                if blocked.isdisjoint(span) and words[i] not in _FUNCTION_WORDS \
-                        and words[i + n - 1] not in _FUNCTION_WORDS:
+                if blocked.isdisjoint(span) and words[i] not in FUNCTION_WORDS \
+                        and words[i + n - 1] not in FUNCTION_WORDS:
                     grams.append((i, " ".join(words[i:i + n])))
         keys = [(aid, k) for aid in self.assets if aid not in skip
                 for k in (aid.replace("_", " "), *self.assets[aid].aliases)]
         if not grams or not keys:
             return []
-        sims = encoder.encode([g for _, g in grams]) @ _key_vectors(encoder, tuple(k for _, k in keys)).T
+        sims = encoder.encode([g for _, g in grams]) @ key_vectors(encoder, tuple(k for _, k in keys)).T
         best: dict[str, tuple[int, float, str, str]] = {}
         for gi, (start, gram) in enumerate(grams):
             ki = int(sims[gi].argmax())
@@ -326,11 +257,11 @@ class AssetDatabase(Model):
         subject is the robot ('the ego-vehicle turns left', ``robot``'s words) is its own."""
         if "behavior" not in self.properties:
             return {}
-        plain = _without_robot(text, [robot] if isinstance(robot, str) else list(robot))
+        blanked = without_robot(text, [robot] if isinstance(robot, str) else list(robot))
         out: dict[str, str] = {}
         for a in self.assets:
-            for st, ph in self.named_states(a, "behavior", plain).items():
-                if not re.search(rf"\bitself\s+{re.escape(ph.lower())}", plain):
+            for st, ph in self.named_states(a, "behavior", blanked).items():
+                if not re.search(rf"\bitself\s+{re.escape(plain(ph))}", plain(blanked)):
                     out.setdefault(st, ph)
         return out
 
@@ -376,7 +307,7 @@ class AssetDatabase(Model):
         phrase shares ``name``'s head noun closely enough (:func:`similarity`): a 'car' may be a
         police car or a parked car, an 'emergency vehicle' a fire truck, never a traffic cone."""
         spec = self.assets[asset]
-        keys = [asset, *spec.aliases, *_main_phrases(spec.description)]
+        keys = [asset, *spec.aliases, *main_phrases(spec.description)]
         return any(similarity(name, k) >= MATCH_THRESHOLD for k in keys)
 
     def category_of(self, asset: str) -> str | None:
@@ -400,13 +331,13 @@ class AssetDatabase(Model):
         over to help a broken-down car')."""
         if prop not in self.parameters_of(asset):
             return {}
-        text = " ".join(event.lower().split())
+        text = plain(event)  # 'broken-down' is 'broken down'
         # a motion the asset cannot make is another actor's ('a car waits for a child crossing
         # the road': crossing is the child's)
         able = set(self.assets[asset].behaviors) if prop == "behavior" else None
         found = [(m.start(), m.end(), st, ph) for st, phrases in self.properties[prop].named_by.items()
                  if able is None or st in able
-                 for ph in phrases for m in re.finditer(rf"\b{re.escape(ph.lower())}\b", text)]
+                 for ph in phrases for m in re.finditer(rf"\b{re.escape(plain(ph))}\b", text)]
         out: dict[str, str] = {}
         for a0, a1, st, ph in sorted(found, key=lambda f: f[0] - f[1]):  # longest first
             if any(b0 <= a0 and a1 <= b1 and (b0, b1) != (a0, a1) for b0, b1, _, _ in found):
@@ -459,12 +390,6 @@ class AssetDatabase(Model):
         for cat, members in self.categories.items():
             lines.append(f"{cat}: " + ", ".join(members))
         return "\n".join(lines)
-
-
-@lru_cache(maxsize=8)
-def _key_vectors(encoder: Any, keys: tuple[str, ...]) -> Any:
-    """The embeddings of a database's names, once per encoder and name list."""
-    return encoder.encode(list(keys))
 
 
 MAX_DATABASE_BYTES = 20_000_000  # an asset database is a small file; larger ones are not read

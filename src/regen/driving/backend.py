@@ -107,8 +107,11 @@ class DrivingBackend(DomainBackend):
     def property_choices(self, asset: str, behavior: Behavior | None = None
                          ) -> tuple[str | None, dict[str | None, dict[str, list[str]]]] | None:
         """An actor's start locations and speed classes follow its behavior (motion primitive):
-        only the starts the primitive supports, and no speed for one that does not move."""
-        from regen.driving.primitives import find, is_state_only
+        only the starts the primitive supports and some map of the ego's template can host
+        (no junction place for an ego that changes lanes on a straight road), and no speed for
+        one that does not move."""
+        from regen.driving.grounding.rules import can_host
+        from regen.driving.primitives import find, for_actor, is_state_only
 
         db = self.database()
         if asset not in db.assets or is_state_only(asset) or not db.assets[asset].behaviors:
@@ -120,10 +123,18 @@ class DrivingBackend(DomainBackend):
         # properties a primitive implies (siren on): that value with it, any value without it
         implied = {p: db.property_candidates(asset, p) or [] for spec in specs.values() for p in spec.implies
                    if p in db.parameters_of(asset)}
+        template = (template_for(behavior.text, self.params(behavior).ego_template)
+                    if behavior is not None and behavior.domain == self.name else None)
         for b, spec in specs.items():
             allowed: dict[str, list[str]] = {}
             if starts:
-                allowed["start_location"] = [x for x in spec.starts if x in starts] or list(starts)
+                here = [x for x in spec.starts if x in starts] or list(starts)
+                if template is not None:
+                    junction = for_actor(asset, b).needs_junction
+                    here = [x for x in here if can_host(template, x, junction_primitive=junction)]
+                    if not here:
+                        continue  # a motion no map of the ego's behavior can host
+                allowed["start_location"] = here
             if speeds and spec.moves:
                 allowed["target_speed"] = list(speeds)
             for p, values in implied.items():

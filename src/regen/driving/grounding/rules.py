@@ -295,6 +295,26 @@ def _cannot_host(roles: list[RoleChoice], why: str) -> GroundingError:
     return GroundingError(text)
 
 
+def can_host(template: EgoTemplate, location: str, *, junction_primitive: bool = False) -> bool:
+    """Whether some map of ``template`` can host an actor starting at ``location`` (a primitive
+    that needs a junction: ``junction_primitive``): the rules of :func:`choose_map` for one
+    role, so the graph is offered only the places the ego's behavior can meet."""
+    loc = LOCATIONS.get(location)
+    if loc is None:
+        return False
+    t = template
+    if loc.needs_junction or junction_primitive:
+        if not geometry(t.map).junction:
+            if "four_way" not in t.junction_maps:
+                return False
+            t = on_junction_map(t, "four_way")
+        if t.passes_junction:
+            return False
+    if loc.needs_second_lane and t.frame.lanes_same_direction < 2:
+        return False
+    return not (loc.behind_ego and t.starts_elsewhere)
+
+
 def choose_map(template: EgoTemplate, roles: list[RoleChoice]) -> EgoTemplate:
     """The template placed on a map that can host every role (GroundingError if none can;
     UngroundableError if what the map cannot host is a place or primitive the graph chose)."""
