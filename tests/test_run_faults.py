@@ -495,3 +495,30 @@ def test_a_run_without_pictures_gets_them_when_resumed_with_pictures(tmp_path, f
     assert not list(run.glob("scenarios/*/bird_eye.gif"))
     assert _cli("--out", str(run)).exit_code == 0
     assert len(list(run.glob("scenarios/*/bird_eye.gif"))) == 2
+
+
+def test_a_drawing_that_fails_for_good_is_not_retried_on_every_rerun(tmp_path, fake_driving, monkeypatch):
+    calls = []
+
+    def render(self, scenario, trace, verdict, out_dir):
+        calls.append(scenario.narrative)
+        raise ValueError("a bug in the drawing code")
+
+    monkeypatch.setattr(FakeBackend, "render", render)
+    run = tmp_path / "run"
+    assert _cli("--out", str(run)).exit_code == 0
+    assert len(calls) == 2 and all("render failed" in p.read_text() for p in run.glob("scenarios/*/error.txt"))
+    assert _cli("--out", str(run)).exit_code == 0
+    assert len(calls) == 2  # kept in error.txt, not redone at every rerun
+
+
+def test_a_drawing_an_older_version_lost_to_a_full_disk_is_redrawn(tmp_path, fake_driving, monkeypatch):
+    _drawing(monkeypatch)
+    run = tmp_path / "run"
+    assert _cli("--out", str(run)).exit_code == 0
+    first = run / "scenarios" / _manifest(run)["scenarios"][0]
+    (first / "bird_eye.gif").unlink()  # as an older version left it: verdict, error.txt, no picture
+    (first / "files.json").write_text("{}")
+    (first / "error.txt").write_text("render failed:\nOSError: [Errno 28] No space left on device\n")
+    assert _cli("--out", str(run)).exit_code == 0
+    assert (first / "bird_eye.gif").is_file() and not (first / "error.txt").exists()

@@ -29,7 +29,7 @@ from regen.core.trace import Trace
 from regen.core.verdict import Verdict
 from regen.errors import LLMError, MalformedAnswerError, RegenError, UngroundableError
 from regen.llm.client import LLM
-from regen.runfolder import ScenarioFolder, read_json, read_model
+from regen.runfolder import ScenarioFolder, read_json, read_model, read_text
 from regen.verify import fidelity
 from regen.verify.monitor import validate_fsm
 
@@ -210,10 +210,24 @@ def _draw(backend: DomainBackend, scenario: Scenario, trace: Trace, verdict: Ver
     return files, problems
 
 
+#: How error.txt (older versions) says that a step met a full or read-only disk: worth redoing.
+_DISK_WORDS = ("No space left", "Disk quota", "Read-only file system")
+
+
+def _recorded_failure(folder: ScenarioFolder, step: str) -> str | None:
+    """How error.txt says ``step`` failed: 'disk' (a full or read-only disk, as older versions
+    recorded it: worth redoing), 'other' (a bug a redo would meet again), or None."""
+    text = read_text(folder / folder.ERROR).value or ""
+    _, found, after = text.partition(f"{step} failed:")
+    if not found:
+        return None
+    return "disk" if any(w in after for w in _DISK_WORDS) else "other"
+
+
 def needs_drawing(folder: ScenarioFolder, verdict: Verdict, pictures: bool) -> bool:
     """Whether a finished scenario lacks pictures or exports a resume should make: it has a
-    trace, and a file it lists is gone, or a step never succeeded (the disk filled up, the run
-    was made with --no-pictures, an older version lost them)."""
+    trace, and a file it lists is gone, or a step met a full disk, or never succeeded (the run
+    was made with --no-pictures) without failing for good."""
     if verdict.status == "simulation_failed" or not (folder / folder.TRACE).is_file():
         return False
     listed = read_json(folder / folder.FILES)
@@ -222,7 +236,11 @@ def needs_drawing(folder: ScenarioFolder, verdict: Verdict, pictures: bool) -> b
             for name in listed.value.values()):
         return True
     done = folder.timings()
-    return "export" not in done or (pictures and "render" not in done)
+    for step in ["export", "render"] if pictures else ["export"]:
+        failure = _recorded_failure(folder, step)
+        if failure == "disk" or (step not in done and failure is None):
+            return True
+    return False
 
 
 def redraw_stage(domain: str, scenario_dir: str, pictures: bool = True) -> bool:
