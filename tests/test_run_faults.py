@@ -418,12 +418,14 @@ def _drawing(monkeypatch, disk=None):
     monkeypatch.setattr(FakeBackend, "render", render)
 
 
-def test_a_full_disk_stops_the_run_with_one_line_and_the_resume_finishes(tmp_path, fake_driving, disk):
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_a_full_disk_stops_the_run_with_one_line_and_the_resume_finishes(tmp_path, fake_driving, disk,
+                                                                         workers):
     run = tmp_path / "run"
-    disk.full("scenarios")
-    line = _one_line(_cli("--out", str(run)), "cannot write", "No space left on device",
-                     "free some disk space", "run the same command again")
-    assert disk.refused
+    disk.full("trace.json" if workers == "2" else "scenarios")  # in the simulation workers
+    line = _one_line(_cli("--out", str(run), "--workers", workers), "cannot write",
+                     "No space left on device", "free some disk space", "run the same command again")
+    assert disk.refused or "trace.json" in line  # a worker's refusals are in the worker
     m = _manifest(run)
     assert m["status"] == "failed" and "No space left on device" in m["message"]
     disk.free()
@@ -522,3 +524,10 @@ def test_a_drawing_an_older_version_lost_to_a_full_disk_is_redrawn(tmp_path, fak
     (first / "error.txt").write_text("render failed:\nOSError: [Errno 28] No space left on device\n")
     assert _cli("--out", str(run)).exit_code == 0
     assert (first / "bird_eye.gif").is_file() and not (first / "error.txt").exists()
+
+
+def test_a_full_disk_during_expand_is_one_line(tmp_path, fake_driving, disk):
+    disk.full("graph.json")
+    res = CliRunner().invoke(app, ["expand", STOP, "--domain", "driving", "--llm", "scripted",
+                                   "--out", str(tmp_path / "g")], env={"COLUMNS": "200"})
+    _one_line(res, "cannot write", "graph.json", "No space left on device")
