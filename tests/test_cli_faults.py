@@ -127,9 +127,10 @@ def test_runs_show_corrupt_verdict_is_shown_as_unreadable(tmp_path: Path, verdic
                                       b'{"status": "caf\xe9"}'])
 def test_runs_show_corrupt_run_json(tmp_path: Path, manifest: str | bytes) -> None:
     run = _make_run(tmp_path, "run", manifest=manifest)
-    # the advice names the command that takes --fresh: `runs show` does not
-    _one_line_error(_run("runs", "show", str(run)), "run.json", "unreadable", "`regen generate`",
-                    f"--out {run} --fresh")
+    # the advice is safe for a folder that may not be a run at all: never --fresh on it
+    line = _one_line_error(_run("runs", "show", str(run)), "run.json", "unreadable",
+                           f"move {run} aside", "another --out")
+    assert "--fresh" not in line
 
 
 def test_runs_show_missing_run_json(tmp_path: Path) -> None:

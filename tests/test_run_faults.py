@@ -245,3 +245,289 @@ def test_a_corrupt_model_cache_is_a_clear_error(tmp_path, fake_driving):
     (run / "llm-cache.sqlite").write_bytes(b"not a database" * 100)
     res = _cli("--out", str(run))
     assert res.exit_code == 2 and "llm-cache.sqlite" in res.output and "Traceback" not in res.output
+
+
+# --- no command deletes what it did not write ----------------------------------------------------
+
+
+def _one_line(res, *says: str) -> str:
+    """Exit 2 and one 'error: ...' line holding every phrase of ``says``, no traceback."""
+    assert res.exit_code == 2, (res.exit_code, res.output, res.exception)
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "Traceback" not in res.output, res.output
+    for phrase in says:
+        assert phrase in lines[0], (phrase, lines[0])
+    return lines[0]
+
+
+def _files(root: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+def test_fresh_refuses_a_folder_that_is_not_a_run_and_deletes_nothing(tmp_path, fake_driving):
+    mine = tmp_path / "mywork"
+    (mine / "scenarios" / "mywork").mkdir(parents=True)
+    (mine / "scenarios" / "mywork" / "data.csv").write_text("a,b\n1,2\n")
+    (mine / "run.json").write_text('{"my": "own settings"}')  # another tool's file of that name
+    (mine / "notes.txt").write_text("do not lose")
+    before = _files(mine)
+    line = _one_line(_cli("--out", str(mine), "--fresh"), "--fresh", "nothing was removed",
+                     "choose another --out")
+    assert "run.json" in line and "notes.txt" in line
+    assert _files(mine) == before and sorted(p.name for p in mine.iterdir()) == ["notes.txt", "run.json", "scenarios"]
+    assert fake_driving.kinds == []  # stopped before any model call
+
+
+def test_fresh_keeps_what_a_user_added_to_a_run_folder(tmp_path, fake_driving):
+    run = tmp_path / "run"
+    assert _cli("--out", str(run)).exit_code == 0
+    (run / "scenarios" / "mywork").mkdir()
+    (run / "scenarios" / "mywork" / "data.csv").write_text("mine")
+    (run / "notes.txt").write_text("mine too")
+    before = _files(run)
+    line = _one_line(_cli("--out", str(run), "--fresh"), "holds what a run does not write",
+                     "nothing was removed")
+    assert "scenarios/mywork/" in line and "notes.txt" in line
+    assert _files(run) == before  # not one file of the run went either
+
+
+def test_fresh_removes_the_runs_files_and_keeps_the_cache_and_test_results(tmp_path, fake_driving):
+    run = tmp_path / "run"
+    assert _cli("--out", str(run)).exit_code == 0
+    (run / "tests" / "my_policy").mkdir(parents=True)
+    (run / "tests" / "my_policy" / "tests.json").write_text("{}")  # regen test's, not generate's
+    cache = (run / "llm-cache.sqlite").read_bytes()
+    FakeBackend.simulated = []
+    assert _cli("--out", str(run), "--fresh").exit_code == 0
+    assert len(FakeBackend.simulated) == 2  # started over
+    assert (run / "tests" / "my_policy" / "tests.json").read_text() == "{}"
+    assert (run / "llm-cache.sqlite").read_bytes()[:100] == cache[:100]
+    assert _manifest(run)["status"] == "done"
+
+
+@pytest.mark.parametrize("command", ["generate", "expand", "eval"])
+def test_an_empty_out_is_an_error(tmp_path, fake_driving, monkeypatch, command):
+    monkeypatch.chdir(tmp_path)
+    args = {"generate": ["generate", STOP, "--domain", "driving", "--llm", "scripted", "--log", "quiet"],
+            "expand": ["expand", STOP, "--domain", "driving", "--llm", "scripted"],
+            "eval": ["eval", "example:regen_style_driving", "--no-embeddings", "--repeats", "1"]}[command]
+    res = CliRunner().invoke(app, [*args, "--out", ""], env={"COLUMNS": "200"})
+    _one_line(res, "--out is empty", "give a folder path")
+    assert list(tmp_path.iterdir()) == [] and fake_driving.kinds == []
+
+
+def test_an_unreadable_run_json_names_a_safe_way_forward(tmp_path, fake_driving):
+    run = tmp_path / "mine"
+    run.mkdir()
+    (run / "run.json").write_text("{not json")
+    (run / "thesis.tex").write_text("years of work")
+    line = _one_line(_cli("--out", str(run)), "run.json", "move", "aside", "another --out")
+    assert "--fresh" not in line
+    assert (run / "thesis.tex").read_text() == "years of work" and (run / "run.json").read_text() == "{not json"
+    assert sorted(p.name for p in run.iterdir()) == ["run.json", "thesis.tex"]  # no lock file left
+
+
+# --- a recovered provider is asked again; expand keeps its cache beside its output ---------------
+
+
+class Flaky:
+    """The scripted model behind a switch: garbage while broken, then its real answers."""
+
+    def __init__(self, model: ScriptedModel):
+        self.model, self.broken, self.calls = model, True, 0
+
+    def __call__(self, messages):
+        self.calls += 1
+        return "I am sorry, the server is overloaded" if self.broken else self.model(messages)
+
+
+def test_a_rerun_asks_a_provider_that_has_recovered(tmp_path, fake_driving, monkeypatch):
+    flaky = Flaky(fake_driving)
+    monkeypatch.setitem(registry._FACTORIES, "scripted", lambda name, **kw: FunctionProvider(flaky))
+    args = ["expand", STOP, "--domain", "driving", "--llm", "scripted", "--out", str(tmp_path / "g")]
+    broken = CliRunner().invoke(app, args, env={"COLUMNS": "200"})
+    assert "0 simulatable cause chain" in broken.output or broken.exit_code != 0, broken.output
+    flaky.broken = False
+    fixed = CliRunner().invoke(app, args, env={"COLUMNS": "200"})
+    assert fixed.exit_code == 0, fixed.output
+    assert "2 simulatable cause chain(s)" in fixed.output, fixed.output
+    assert {"propose", "judge"} <= set(fake_driving.kinds)  # the provider was asked again
+
+
+def test_expand_keeps_its_cache_beside_its_output(tmp_path, fake_driving):
+    import os as _os
+
+    out = tmp_path / "g"
+    res = CliRunner().invoke(app, ["expand", STOP, "--domain", "driving", "--llm", "scripted",
+                                   "--out", str(out)], env={"COLUMNS": "200"})
+    assert res.exit_code == 0, res.output
+    assert (out / "llm-cache.sqlite").is_file()
+    shared = Path(_os.environ["REGEN_CACHE_DIR"])
+    assert not list(shared.rglob("llm-cache.sqlite*"))  # nothing in the account-wide cache
+    other = tmp_path / "elsewhere.sqlite"
+    assert CliRunner().invoke(app, ["expand", STOP, "--domain", "driving", "--llm", "scripted", "--out",
+                                    str(tmp_path / "h"), "--cache", str(other)]).exit_code == 0
+    assert other.is_file() and not (tmp_path / "h" / "llm-cache.sqlite").exists()
+
+
+# --- a full disk or a read-only folder during a run ---------------------------------------------
+
+
+@pytest.fixture
+def disk(monkeypatch):
+    """A run folder's disk that fills up on demand: ``disk.full(where)`` makes every atomic write
+    of a path containing ``where`` fail as a full disk (or ``disk.error``) until ``disk.free()``."""
+    import errno as _errno
+
+    import regen.core.io as io
+
+    real = io.atomic_write_bytes
+
+    class Disk:
+        where: str | None = None
+        error = _errno.ENOSPC
+        refused: list[str] = []
+
+        def full(self, where: str = "", error: int = _errno.ENOSPC) -> None:
+            self.where, self.error = where, error
+
+        def free(self) -> None:
+            self.where = None
+
+    d = Disk()
+
+    def write(path, data):
+        if d.where is not None and d.where in str(path):
+            d.refused.append(str(path))
+            raise OSError(d.error, os.strerror(d.error), str(path))
+        return real(path, data)
+
+    monkeypatch.setattr(io, "atomic_write_bytes", write)
+    return d
+
+
+def _drawing(monkeypatch, disk=None):
+    """FakeBackend draws a small picture per scenario (through the run folder's disk)."""
+    import regen.core.io as io
+
+    def render(self, scenario, trace, verdict, out_dir):
+        gif = Path(out_dir) / "bird_eye.gif"
+        io.atomic_write_bytes(gif, b"GIF89a" + scenario.narrative.encode())
+        return {"animation": gif}
+
+    monkeypatch.setattr(FakeBackend, "render", render)
+
+
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_a_full_disk_stops_the_run_with_one_line_and_the_resume_finishes(tmp_path, fake_driving, disk,
+                                                                         workers):
+    run = tmp_path / "run"
+    disk.full("trace.json" if workers == "2" else "scenarios")  # in the simulation workers
+    line = _one_line(_cli("--out", str(run), "--workers", workers), "cannot write",
+                     "No space left on device", "free some disk space", "run the same command again")
+    assert disk.refused or "trace.json" in line  # a worker's refusals are in the worker
+    m = _manifest(run)
+    assert m["status"] == "failed" and "No space left on device" in m["message"]
+    disk.free()
+    res = _cli("--out", str(run))
+    assert res.exit_code == 0, res.output
+    assert _manifest(run)["status"] == "done" and len(list(run.glob("scenarios/*/verdict.json"))) == 2
+    assert "scenarios" in line
+
+
+def test_a_disk_that_takes_nothing_more_still_says_failed_in_run_json(tmp_path, fake_driving, disk):
+    run = tmp_path / "run"
+    disk.full("scenarios")
+    FakeBackend.interrupt_on = None
+    real_write = RunFolder.write_manifest
+
+    def manifest_too(self, manifest):  # once the disk is full, run.json cannot be replaced either
+        if manifest.status != "running":
+            raise OSError(28, "No space left on device", str(self / self.MANIFEST))
+        return real_write(self, manifest)
+
+    import unittest.mock as mock
+
+    with mock.patch.object(RunFolder, "write_manifest", manifest_too):
+        _one_line(_cli("--out", str(run)), "No space left on device")
+    assert _manifest(run)["status"] == "failed"  # written in place over the old run.json
+
+
+@pytest.mark.parametrize("error,says", [(30, "make"), (13, "make")])  # EROFS, EACCES
+def test_a_read_only_run_folder_stops_the_run_with_one_line(tmp_path, fake_driving, disk, error, says):
+    run = tmp_path / "run"
+    disk.full("scenarios", error=error)
+    line = _one_line(_cli("--out", str(run)), "cannot write", f"{says} {run} writable")
+    assert _manifest(run)["status"] == "failed", line
+    disk.free()
+    assert _cli("--out", str(run)).exit_code == 0
+
+
+def test_a_full_disk_while_drawing_is_redrawn_on_resume(tmp_path, fake_driving, disk, monkeypatch):
+    _drawing(monkeypatch)
+    run = tmp_path / "run"
+    disk.full("bird_eye.gif")
+    _one_line(_cli("--out", str(run)), "bird_eye.gif", "No space left on device")
+    assert _manifest(run)["status"] == "failed"
+    disk.free()
+    assert _cli("--out", str(run)).exit_code == 0
+    for name in _manifest(run)["scenarios"]:
+        folder = run / "scenarios" / name
+        assert (folder / "bird_eye.gif").is_file(), name
+        assert json.loads((folder / "files.json").read_text())["animation"] == "bird_eye.gif"
+
+
+def test_pictures_missing_from_a_finished_scenario_are_redrawn_on_resume(tmp_path, fake_driving, monkeypatch):
+    _drawing(monkeypatch)
+    run = tmp_path / "run"
+    assert _cli("--out", str(run)).exit_code == 0
+    first = run / "scenarios" / _manifest(run)["scenarios"][0]
+    verdict = (first / "verdict.json").read_text()
+    (first / "bird_eye.gif").unlink()  # e.g. cleaned away while the disk was full
+    FakeBackend.simulated = []
+    assert _cli("--out", str(run)).exit_code == 0
+    assert (first / "bird_eye.gif").is_file()
+    assert FakeBackend.simulated == [] and (first / "verdict.json").read_text() == verdict  # only drawn
+
+
+def test_a_run_without_pictures_gets_them_when_resumed_with_pictures(tmp_path, fake_driving, monkeypatch):
+    _drawing(monkeypatch)
+    run = tmp_path / "run"
+    assert _cli("--out", str(run), "--no-pictures").exit_code == 0
+    assert not list(run.glob("scenarios/*/bird_eye.gif"))
+    assert _cli("--out", str(run)).exit_code == 0
+    assert len(list(run.glob("scenarios/*/bird_eye.gif"))) == 2
+
+
+def test_a_drawing_that_fails_for_good_is_not_retried_on_every_rerun(tmp_path, fake_driving, monkeypatch):
+    calls = []
+
+    def render(self, scenario, trace, verdict, out_dir):
+        calls.append(scenario.narrative)
+        raise ValueError("a bug in the drawing code")
+
+    monkeypatch.setattr(FakeBackend, "render", render)
+    run = tmp_path / "run"
+    assert _cli("--out", str(run)).exit_code == 0
+    assert len(calls) == 2 and all("render failed" in p.read_text() for p in run.glob("scenarios/*/error.txt"))
+    assert _cli("--out", str(run)).exit_code == 0
+    assert len(calls) == 2  # kept in error.txt, not redone at every rerun
+
+
+def test_a_drawing_an_older_version_lost_to_a_full_disk_is_redrawn(tmp_path, fake_driving, monkeypatch):
+    _drawing(monkeypatch)
+    run = tmp_path / "run"
+    assert _cli("--out", str(run)).exit_code == 0
+    first = run / "scenarios" / _manifest(run)["scenarios"][0]
+    (first / "bird_eye.gif").unlink()  # as an older version left it: verdict, error.txt, no picture
+    (first / "files.json").write_text("{}")
+    (first / "error.txt").write_text("render failed:\nOSError: [Errno 28] No space left on device\n")
+    assert _cli("--out", str(run)).exit_code == 0
+    assert (first / "bird_eye.gif").is_file() and not (first / "error.txt").exists()
+
+
+def test_a_full_disk_during_expand_is_one_line(tmp_path, fake_driving, disk):
+    disk.full("graph.json")
+    res = CliRunner().invoke(app, ["expand", STOP, "--domain", "driving", "--llm", "scripted",
+                                   "--out", str(tmp_path / "g")], env={"COLUMNS": "200"})
+    _one_line(res, "cannot write", "graph.json", "No space left on device")

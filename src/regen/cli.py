@@ -6,9 +6,11 @@ that says what to do, with no traceback.
 
 from __future__ import annotations
 
+import errno
 import functools
 import json
 import logging
+import os
 import re
 from collections.abc import Callable
 from typing import Any, TypeVar
@@ -62,6 +64,13 @@ def friendly(fn: F) -> F:
             one_line = re.sub(r"\s*\n\s*", " ", str(exc)).strip()
             err_console.print(f"[bold red]error:[/] {shown(one_line)}")
             raise typer.Exit(exc.exit_code) from None
+        except OSError as exc:  # a full disk or a read-only file system anywhere: no traceback
+            if exc.errno not in (errno.ENOSPC, errno.EDQUOT, errno.EROFS):
+                raise
+            where = f" {os.fsdecode(exc.filename)}" if exc.filename else ""
+            err_console.print(f"[bold red]error:[/] cannot write{shown(where)}: {shown(exc.strerror)}; "
+                              "free some space or choose a writable place, then run the command again")
+            raise typer.Exit(2) from None
 
     return wrapper  # type: ignore[return-value]
 
@@ -158,13 +167,12 @@ def model_verify(alias: str = typer.Argument("qwen2.5-coder-1.5b")) -> None:
     console.print(f"sha256 ok: {path}")
 
 
-def llm_options(llm: str, cache: str | None, replay: bool, on_call=None, timeout: float | None = None):
-    """Build the LLM client the commands share (cache in the user cache dir by default)."""
+def llm_options(llm: str, cache: str, replay: bool, on_call=None, timeout: float | None = None):
+    """Build the LLM client the commands share, caching in ``cache`` (a command keeps its cache
+    beside its output: one cache for a whole user account would mix unrelated work)."""
     from regen.llm import LLM
-    from regen.paths import cache_dir
 
-    path = cache or str(cache_dir() / "llm-cache.sqlite")
-    return LLM(llm, cache=path, replay=replay, on_call=on_call, timeout=timeout)
+    return LLM(llm, cache=cache, replay=replay, on_call=on_call, timeout=timeout)
 
 
 LLM_HELP = ("Model: local (offline default), local:<alias or .gguf>, openai:<model> "
@@ -194,20 +202,20 @@ def expand_cmd(
     prior: str = typer.Option(None, "--prior", help="Steer proposals, e.g. 'police car'"),
     candidate: list[str] = typer.Option(None, "--candidate", help=CANDIDATE_HELP),
     cause: list[str] = typer.Option(None, "--cause", help=CAUSE_HELP),
-    cache: str = typer.Option(None, "--cache", help="LLM cache file (default: user cache dir)"),
+    cache: str = typer.Option(None, "--cache", help="LLM cache file (default: llm-cache.sqlite in --out)"),
     replay: bool = typer.Option(False, "--replay", help="Forbid model calls: cached answers only"),
     llm_timeout: float = typer.Option(None, "--llm-timeout", min=0.1, help=LLM_TIMEOUT_HELP),
 ) -> None:
     """Infer a causal graph of events, entities and properties behind a behavior (paper Alg. 1)."""
-    from pathlib import Path
-
     from rich.live import Live
     from rich.spinner import Spinner
 
     from regen.core.behavior import make_behavior
     from regen.expand import Limits
     from regen.expand.run import run_expand
+    from regen.runfolder import out_folder
 
+    out_dir = out_folder(out)
     b = make_behavior(behavior, domain)
     status = {"stage": "events", "text": ""}
     spinner = Spinner("dots", text="starting")
@@ -217,7 +225,9 @@ def expand_cmd(
         if client is not None:
             spinner.update(text=f"{status['stage']}: {client.stats.summary()}")
 
-    client = llm_options(llm, cache, replay, on_call, timeout=llm_timeout)
+    # the cache lives beside the graph it made (a rerun replays it), unless --cache says otherwise
+    client = llm_options(llm, cache or str(out_dir / "llm-cache.sqlite"), replay, on_call,
+                         timeout=llm_timeout)
     limits = Limits(max_depth=depth, max_nodes=max_nodes, max_calls=max_calls, max_tokens=max_tokens,
                     max_causes=causes)
 
@@ -225,7 +235,7 @@ def expand_cmd(
         status["stage"] = {"events": "entities", "entities": "properties"}.get(what, what)
 
     with Live(spinner, console=err_console, transient=True, refresh_per_second=4):
-        res = run_expand(b, client, Path(out), limits=limits, prior=prior, candidates=candidate or [],
+        res = run_expand(b, client, out_dir, limits=limits, prior=prior, candidates=candidate or [],
                          forced_causes=cause or [], on_update=on_update)
     g = res.graph
     paths = g.paths()
@@ -276,14 +286,13 @@ def generate_cmd(
                                "resuming it (its model cache is kept)"),
 ) -> None:
     """The main job: behavior -> causal graph -> scenarios -> simulation -> verdicts -> report."""
-    from pathlib import Path
-
     from regen.core.behavior import make_behavior
     from regen.errors import ConfigError
     from regen.pipeline import generate
     from regen.progress import make_progress
-    from regen.runfolder import RunSettings
+    from regen.runfolder import RunSettings, out_folder
 
+    out_dir = out_folder(out)
     if log not in ("rich", "quiet", "jsonl"):
         raise ConfigError(f"--log must be rich, quiet or jsonl, not {log!r}")
     extra = {}
@@ -298,7 +307,7 @@ def generate_cmd(
                            workers=workers, pictures=not no_pictures, llm_timeout=llm_timeout)
     with make_progress(log, console=err_console, out=console) as progress:
         try:
-            result = generate(b, Path(out), settings=settings, replay=replay, fresh=fresh,
+            result = generate(b, out_dir, settings=settings, replay=replay, fresh=fresh,
                               on_event=progress.on_event)
         except KeyboardInterrupt:
             err_console.print(f"[yellow]interrupted: finished scenarios are saved in {escape(out)}; "
@@ -324,7 +333,7 @@ def generate_cmd(
     for o in result.outcomes:
         mark = f"[green]{o.verdict.status}[/]" if o.verdict.feasible else f"[red]{o.verdict.status}[/]"
         console.print(f"  {escape(o.folder)}: {mark}: {escape(o.verdict.reason)}")
-    report = Path(out) / "report.html"
+    report = out_dir / "report.html"
     if report.exists():
         console.print(f"report: {report}")
 

@@ -101,3 +101,8 @@ class SimulationError(RegenError):
 
 class RunError(RegenError):
     """A run folder is unusable (wrong behavior for the folder, unreadable state)."""
+
+
+class StorageError(RunError):
+    """The run folder cannot be written (a full disk, a read-only folder); the run stops and is
+    resumed by the same command once there is room."""

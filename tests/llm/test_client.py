@@ -127,3 +127,34 @@ def test_options_for_a_provider_object_are_refused_not_ignored() -> None:
     with pytest.raises(ConfigError, match=r"^timeout, base_url: "):
         LLM(QueuedProvider([]), timeout=5.0, base_url="http://127.0.0.1:1")
     LLM(QueuedProvider([]))  # nothing to apply: fine
+
+
+def test_a_cache_written_before_failed_answers_were_marked_still_serves(tmp_path: Path) -> None:
+    import sqlite3
+
+    from regen.llm.base import Sampling as S
+    from regen.llm.cache import cache_key
+
+    path = tmp_path / "old.sqlite"
+    prov = QueuedProvider([])
+    key = cache_key(prov.id, [{"role": "user", "content": "q"}], Causes.model_json_schema(), S())
+    with sqlite3.connect(path) as db:  # the table as older versions made it: no 'failed' column
+        db.execute("CREATE TABLE calls (key TEXT PRIMARY KEY, provider TEXT NOT NULL, purpose TEXT "
+                   "NOT NULL, response TEXT NOT NULL, input_tokens INTEGER NOT NULL, output_tokens "
+                   "INTEGER NOT NULL, latency REAL NOT NULL, created REAL NOT NULL)")
+        db.execute("INSERT INTO calls VALUES (?, 'queued:test', 'call', ?, 1, 1, 0.1, 0)",
+                   (key, '{"causes": ["old"]}'))
+    got = LLM(prov, cache=path).ask("q", Causes)
+    assert got.cached and got.value.causes == ["old"]
+    LLM(QueuedProvider(['{"causes": ["new"]}']), cache=path).ask("other", Causes)  # and writes
+
+
+def test_a_full_cache_file_is_a_full_disk(tmp_path: Path) -> None:
+    import errno
+
+    cache = CallCache(tmp_path / "c.sqlite")
+    cache._db.execute("PRAGMA max_page_count = 8")  # the file cannot grow: as on a full disk
+    with pytest.raises(OSError) as err:
+        for i in range(200):
+            cache.put(f"k{i}", "p", "call", Completion(text="x" * 4000), 0.1)
+    assert err.value.errno == errno.ENOSPC and str(tmp_path / "c.sqlite") == err.value.filename

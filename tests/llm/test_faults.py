@@ -233,6 +233,45 @@ def test_malformed_to_the_cap_is_a_malformed_answer_error(fault_server: FaultSer
         replayed(kind, fault_server, cache)
 
 
+def test_a_provider_that_recovers_is_asked_again_by_the_next_run(fault_server: FaultServer, kind: str,
+                                                                 cache: Path) -> None:
+    fault_server.queue(answer("overloaded, try later"), answer("{}"), answer("[1]"))
+    with pytest.raises(MalformedAnswerError):
+        client(kind, fault_server, cache).structured("q", Causes)
+    fault_server.queue(answer(GOOD))  # the provider works again
+    got = client(kind, fault_server, cache).ask("q", Causes)  # "run the same command again"
+    assert got.value.causes == ["debris on the road"] and not got.cached and got.attempts == 1
+    assert len(fault_server.requests) == 4
+    # and that answer is now what a rerun and a replay get, without the provider
+    assert client(kind, fault_server, cache).ask("q", Causes).cached
+    assert replayed(kind, fault_server, cache).causes == ["debris on the road"]
+    assert len(fault_server.requests) == 4
+
+
+def test_a_reask_cut_short_leaves_no_invalid_answer_for_the_rerun(fault_server: FaultServer, kind: str,
+                                                                   cache: Path) -> None:
+    fault_server.queue(answer("not json"), status(400))  # the re-ask itself fails
+    with pytest.raises(ProviderResponseError):
+        client(kind, fault_server, cache).structured("q", Causes)
+    fault_server.queue(answer(GOOD))
+    got = client(kind, fault_server, cache).ask("q", Causes)
+    assert got.attempts == 1 and got.value.causes == ["debris on the road"]
+    assert fault_server.requests[-1].body["messages"][-1]["content"] == "q"  # asked, not re-asked
+
+
+def test_an_exchange_that_recovered_by_reasking_is_replayed_exactly(fault_server: FaultServer, kind: str,
+                                                                    cache: Path) -> None:
+    fault_server.queue(answer("not json"), answer(GOOD))
+    first = client(kind, fault_server, cache).ask("q", Causes)
+    assert first.attempts == 2
+    for again in (client(kind, fault_server, cache),
+                  LLM(provider(kind, fault_server), cache=cache, replay=True, max_reasks=2)):
+        got = again.ask("q", Causes)
+        assert (got.value, got.attempts, got.cached) == (first.value, 2, True)
+        assert again.stats.total.reasks == 1 and again.stats.total.model_calls == 0
+    assert len(fault_server.requests) == 2
+
+
 # --- answers cleaned before they are cached ---------------------------------------------------
 
 

@@ -12,6 +12,7 @@ from typing import Any, TypeVar
 from pydantic import Field, ValidationError, field_validator, model_validator
 
 from regen.core.base import Model
+from regen.core.text import one_line
 
 #: Top-level behavior keys of files written before ``params`` existed (run.json, scenario.json,
 #: path.json, tests.json, graph.json): their non-null values are read into ``params``, and
@@ -44,7 +45,9 @@ class Behavior(Model):
     @field_validator("text")
     @classmethod
     def _text_not_empty(cls, v: str) -> str:
-        v = " ".join(v.split())
+        # invisible characters (regen.core.text) would make two behaviors that read the same
+        # differ, in prompts, cache keys and folder names
+        v = one_line(v)
         if not v:
             raise ValueError("the behavior text is empty: describe the robot behavior, e.g. "
                              "'the robot opens the door'")

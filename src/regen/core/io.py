@@ -1,7 +1,10 @@
-"""Atomic file writes: a crash mid-write never leaves a half-written result behind."""
+"""Atomic file writes: a crash mid-write never leaves a half-written result behind; and how a
+disk that takes no more (full, read-only) is told from other failures."""
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import json
 import os
 import tempfile
@@ -9,6 +12,8 @@ from pathlib import Path
 from typing import Any
 
 from pydantic import BaseModel
+
+from regen.errors import StorageError
 
 
 def _umask() -> int:
@@ -50,3 +55,35 @@ def write_json(path: str | os.PathLike[str], value: BaseModel | Any) -> Path:
     else:
         text = json.dumps(value, indent=2, sort_keys=False, default=str)
     return atomic_write_text(path, text + "\n")
+
+
+_FULL = (errno.ENOSPC, errno.EDQUOT)
+_READ_ONLY = (errno.EROFS,)
+_DENIED = (errno.EACCES, errno.EPERM)
+
+
+def cannot_write(exc: BaseException, root: Path) -> bool:
+    """Whether ``exc`` says that ``root`` cannot take more: a full disk or quota, a read-only
+    file system, or a permission refused on a path inside ``root`` (elsewhere, e.g. a font
+    cache, it is some other failure)."""
+    if not isinstance(exc, OSError) or exc.errno is None:
+        return False
+    if exc.errno in _FULL + _READ_ONLY:
+        return True
+    if exc.errno in _DENIED and exc.filename:
+        try:
+            return Path(os.fsdecode(exc.filename)).resolve().is_relative_to(Path(root).resolve())
+        except (OSError, TypeError, ValueError):
+            return False
+    return False
+
+
+def storage_error(exc: OSError, root: Path) -> StorageError:
+    """The one-line error for :func:`cannot_write`: what could not be written, why, what to do."""
+    where = Path(os.fsdecode(exc.filename)) if exc.filename else Path(root)
+    with contextlib.suppress(ValueError):
+        where = Path(root) / where.resolve().relative_to(Path(root).resolve())
+    fix = ("free some disk space" if exc.errno in _FULL
+           else f"make {root} writable (or move the run to a writable place)")
+    return StorageError(f"cannot write {where}: {exc.strerror or exc}; {fix}, then run the same "
+                        "command again to resume")

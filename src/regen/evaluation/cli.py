@@ -19,6 +19,7 @@ from regen.evaluation.edges import bundled_edge_examples, model_judge
 from regen.evaluation.evaluate import EvalSettings, evaluate
 from regen.evaluation.tables import print_report
 from regen.evaluation.textsets import EXAMPLE_PREFIX, bundled_sets
+from regen.runfolder import out_folder
 
 
 def eval_command(
@@ -26,8 +27,8 @@ def eval_command(
         help="Run folders, text sets (.txt one per line, .json, .jsonl) or example:<name> "
              "(bundled sets; see --list-examples). Each is one column of the comparison.",
         show_default=False)] = None,
-    out: Annotated[Path | None, typer.Option(
-        "--out", "-o", help="Folder for eval.json and PNG plots.")] = None,
+    out_text: Annotated[str | None, typer.Option(
+        "--out", "-o", help="Folder for eval.json and PNG plots.", show_default=False)] = None,
     sample_size: Annotated[int | None, typer.Option(
         "--n", help="Texts drawn per repeat; default: the smallest set size.")] = None,
     repeats: Annotated[int, typer.Option(help="Draws per set (the paper uses 10).")] = 10,
@@ -53,6 +54,11 @@ def eval_command(
     """Diversity (embedding and Self-BLEU), feasibility, controllability, edge accuracy and
     entity fidelity."""
     console = Console()
+    try:  # typer would turn an empty --out into Path(""), the current folder
+        out = None if out_text is None else out_folder(out_text)
+    except RegenError as exc:
+        Console(stderr=True, soft_wrap=True).print(f"[red]error:[/red] {escape(clean(str(exc)))}")
+        raise typer.Exit(code=exc.exit_code) from None
     if fidelity is not None:
         _fidelity(fidelity, out, llm, console)
         return

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 from regen.assets.database import AssetDatabase
 from regen.core.behavior import Behavior
 from regen.core.graph import Decision, Node, ScenarioGraph, node_id
+from regen.core.text import one_line
 from regen.expand import edges
 from regen.expand.dedupe import merge
 from regen.llm.client import LLM
@@ -382,10 +383,14 @@ def expand(behavior: Behavior, llm: LLM, *, database: AssetDatabase | None = Non
     if database is None:
         database = domain.database()
     g = graph or ScenarioGraph.start(behavior)
+    if prior is not None:
+        prior = one_line(prior) or None
     return Expander(llm, database, limits, prior=prior, on_update=on_update, should_stop=should_stop,
                     domain=domain).run(g, _tidy(candidates), _tidy(forced_causes))
 
 
 def _tidy(texts: Sequence[str]) -> list[str]:
-    """User-given causes with their whitespace collapsed; blank ones dropped."""
-    return [" ".join(t.split()) for t in texts if t and t.strip()]
+    """User-given causes without invisible characters (regen.core.text), their whitespace
+    collapsed; blank ones dropped."""
+    out = (one_line(t) for t in texts if t)
+    return [t for t in out if t]

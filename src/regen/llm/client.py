@@ -149,7 +149,9 @@ class LLM:
                  purpose: str = "call", reask: bool = False) -> tuple[Completion, str, bool]:
         """A raw cached call: (completion, cache key, whether it came from the cache)."""
         key = cache_key(self.provider.id, messages, schema, self.sampling)
-        hit = self.cache.get(key)
+        # an answer that failed validation for good is replayed, never served to a run that can
+        # ask again (regen.llm.cache)
+        hit = self.cache.get(key, failed=self.replay)
         if hit is not None:
             completion, latency = hit
             completion = self._clean(completion)  # entries written before cleaning existed
@@ -193,17 +195,25 @@ class LLM:
         json_schema = schema.model_json_schema()
         problem = ""
         all_cached = True
+        invalid: list[str] = []  # cache keys of this call's answers that failed validation
         for attempt in range(self.max_reasks + 1):
             completion, key, cached = self.complete(msgs, json_schema, purpose=purpose,
                                                     reask=attempt > 0)
             all_cached &= cached
             try:
                 value = schema.model_validate(clean_value(extract_json(completion.text)))
-                return Answered(value=value, call_id=key, cached=all_cached, attempts=attempt + 1)
             except ValidationError as exc:
                 problem = shorten(_format_errors(exc), MAX_PROBLEM_CHARS)
             except ValueError as exc:
                 problem = shorten(str(exc), MAX_PROBLEM_CHARS)
+            else:
+                # recovered: the invalid answers before are part of an exchange a rerun replays
+                self.cache.mark(invalid, failed=False)
+                return Answered(value=value, call_id=key, cached=all_cached, attempts=attempt + 1)
+            # marked at once, so that a process killed before the re-ask leaves no answer a
+            # rerun would take from the cache
+            self.cache.mark([key], failed=True)
+            invalid.append(key)
             log.info("answer for %s did not validate (%s); re-asking", purpose, problem)
             msgs = msgs + [
                 {"role": "assistant", "content": shorten(completion.text, MAX_ECHO_CHARS)},

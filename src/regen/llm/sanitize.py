@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from regen.core.text import BIDI, CONTROL, SURROGATE, map_strings
+from regen.core.text import CONTROL, FORMAT, SURROGATE, map_strings
 
 #: Longest model-written string (a reason, label, narrative, name) [characters]; longer ones are
 #: cut to this length, ending in an ellipsis. Labels have tighter limits in their answer schemas.
@@ -20,20 +20,22 @@ ELLIPSIS = "\u2026"
 REPLACEMENT = "\ufffd"
 
 # regen.core.text: Unicode control characters but tab, newline and carriage return (answer text
-# keeps \r, whitespace between JSON tokens; strings of a parsed answer lose it too), the bidi
-# embedding, override and isolate controls, and lone surrogates.
+# keeps \r, whitespace between JSON tokens; strings of a parsed answer lose it too), invisible
+# format characters (the bidi controls, zero-width spaces, direction marks, tag characters ...;
+# not the join controls U+200C, U+200D), and lone surrogates.
 
 
 def clean_text(text: str) -> str:
     """An answer text as received: lone surrogates become U+FFFD, control characters other
-    than tab, newline and carriage return are removed, and so are bidi controls."""
-    return BIDI.sub("", CONTROL.sub("", SURROGATE.sub(REPLACEMENT, text)))
+    than tab, newline and carriage return are removed, and so are invisible format characters
+    (:data:`regen.core.text.FORMAT`: bidi controls, U+200B, U+200F, U+FEFF ...)."""
+    return FORMAT.sub("", CONTROL.sub("", SURROGATE.sub(REPLACEMENT, text)))
 
 
 def clean_string(text: str, limit: int = MAX_TEXT_CHARS) -> str:
     """One string of a parsed answer: cleaned like :func:`clean_text` (carriage returns too)
     and cut to ``limit`` characters, the last being an ellipsis."""
-    text = BIDI.sub("", CONTROL.sub("", SURROGATE.sub(REPLACEMENT, text))).replace("\r", "")
+    text = FORMAT.sub("", CONTROL.sub("", SURROGATE.sub(REPLACEMENT, text))).replace("\r", "")
     return text if len(text) <= limit else text[:limit - 1] + ELLIPSIS
 
 

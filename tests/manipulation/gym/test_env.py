@@ -86,3 +86,16 @@ def test_ramming_the_pet_terminates_with_the_penalty(run_dir):
     with pytest.raises(gymnasium.error.ResetNeeded):
         env.step(np.zeros(4, dtype=np.float32))
     env.close()
+
+
+@pytest.mark.parametrize("action", [[10**400, 0, 0, 0], "open", None, [0.0, "x", 0.0, 0.0],
+                                    [float("nan"), 0, 0, 0], [0.0, 0.0, 0.0], object()],
+                         ids=["huge", "string", "none", "string-entry", "nan", "short", "object"])
+def test_bad_actions_are_value_errors_and_the_episode_goes_on(run_dir, action):
+    env = gymnasium.make("regen/Manipulation-v0", runs=[run_dir]).unwrapped
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="4 finite numbers"):
+        env.step(action)
+    obs, *_ = env.step(np.zeros(4, dtype=np.float32))  # nothing of the bad action got in
+    assert np.all(np.isfinite(obs))
+    env.close()

@@ -26,6 +26,7 @@ import math
 
 import numpy as np
 
+from regen.core.vectors import finite_vector
 from regen.driving.testing.policies import MAX_ACCEL, MAX_BRAKE, ROUTE_AHEAD, Action, Observation
 from regen.driving.world.actors import CATEGORIES as ACTOR_CATEGORIES
 from regen.driving.world.geometry import to_local
@@ -106,9 +107,7 @@ def decode_action(action: object, normalized: bool = False) -> Action:
     """The policy Action of an action vector, clipped to the action space. Normalized: the first
     entry is full brake at -1, nothing at 0, full throttle at +1; the second scales
     MAX_CURVATURE. ValueError for a non-finite or wrongly shaped action."""
-    a = np.asarray(action, dtype=np.float64).reshape(-1)
-    if a.shape != (2,) or not np.all(np.isfinite(a)):
-        raise ValueError(f"the action must be 2 finite numbers [acceleration, curvature], got {action!r}")
+    a = finite_vector(action, 2, "the action [acceleration, curvature]")
     if normalized:
         u, k = float(np.clip(a[0], -1.0, 1.0)), float(np.clip(a[1], -1.0, 1.0))
         return Action(u * (MAX_ACCEL if u > 0 else MAX_BRAKE), k * MAX_CURVATURE)

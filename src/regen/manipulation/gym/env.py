@@ -8,6 +8,8 @@ objects are free bodies); unverified scenarios are skipped. One step is one poli
 Action: ``Box(-1, 1, (4,))``: ``[dx, dy, dz]`` times ``MAX_STEP`` (0.03 m) is the hand set-point
 displacement [m] (world frame) and ``a[3] > 0`` closes the hand (grasping a handle or the item
 within 0.05 m), else opens it: the meaning of :class:`regen.manipulation.testing.types.Action`.
+Values beyond [-1, 1] are clipped; anything but 4 finite numbers (a string, NaN, ``10**400``) is
+a ValueError.
 
 Observation: a float32 vector of :data:`OBS_SIZE` (every value clipped to ``[-LIMIT, LIMIT]``):
 
@@ -41,6 +43,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from regen.core.vectors import finite_vector
 from regen.errors import ConfigError
 from regen.harness.catalog import Entry, Picker, verified
 from regen.manipulation.testing.loop import Session, prepare
@@ -158,7 +161,7 @@ class ManipulationEnv(gym.Env):
         session = self._slot["session"]
         if session is None:
             raise gym.error.ResetNeeded("call reset() before step() (the episode has ended)")
-        a = np.clip(np.asarray(action, dtype=np.float64).reshape(4), -1.0, 1.0)
+        a = np.clip(finite_vector(action, 4, "the action [dx, dy, dz, grip]"), -1.0, 1.0)
         seen = len(session.rec.tracks.get("robot", {}).get("contacts", []))
         session.apply(Action(*(a[:3] * MAX_STEP), gripper=1.0 if a[3] > 0 else 0.0))
         self._steps += 1

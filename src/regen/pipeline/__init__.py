@@ -1,6 +1,6 @@
 """The main job: behavior -> graph -> paths -> ground -> simulate -> verify -> export.
 
-This module holds the stage functions, and they are the only route from a behavior to a
+The stage functions (:mod:`regen.pipeline.stages`) are the only route from a behavior to a
 verdict: ``regen generate``, :func:`generate`, :func:`run_path` (one cause chain, for tests,
 benchmarks and library users) and the worker processes all call them. Everything goes into a
 run folder (:mod:`regen.runfolder`); rerunning the same command resumes: finished scenarios are
@@ -8,21 +8,23 @@ skipped and model answers come from the run's cache, so nothing already computed
 
 Error policy: a model error that retrying later can fix (replay miss, provider unreachable,
 missing key, bad model file) stops the run with its message; the run stays resumable and no
-verdict is written for the scenario it hit. A cause chain that cannot be grounded, an
-unsatisfiable placement, an invalid FSM or a simulator failure is that scenario's verdict.
+verdict is written for the scenario it hit. So does a disk that takes no more (full, read-only):
+one line that says so (exit 2), ``run.json`` "failed", and the resume redoes what is missing,
+pictures included. A cause chain that cannot be grounded, an unsatisfiable placement, an
+invalid FSM or a simulator failure is that scenario's verdict.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import os
 import re
 import time
-import traceback
 from collections.abc import Callable, Collection
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -30,26 +32,28 @@ from regen import domains
 from regen.contract import DomainBackend
 from regen.core.behavior import Behavior
 from regen.core.graph import CausePath, ScenarioGraph
-from regen.core.io import write_json
-from regen.core.scenario import Scenario
-from regen.core.trace import Trace
+from regen.core.io import cannot_write, storage_error, write_json
 from regen.core.verdict import Verdict
-from regen.errors import LLMError, MalformedAnswerError, RegenError, UngroundableError
+from regen.errors import RegenError
 from regen.expand.expansion import expand
 from regen.expand.run import save_graph
 from regen.interrupts import Interrupts
 from regen.llm.client import LLM
+from regen.pipeline.stages import (
+    ScenarioOutcome,
+    ground_stage,
+    needs_drawing,
+    redraw_stage,
+    run_path,
+    simulate_stage,
+)
 from regen.runfolder import (
     RunFolder,
     RunManifest,
     RunSettings,
-    ScenarioFolder,
     merge_usage,
     now,
-    read_model,
 )
-from regen.verify import fidelity
-from regen.verify.monitor import validate_fsm
 
 log = logging.getLogger(__name__)
 
@@ -57,20 +61,6 @@ Event = dict[str, Any]
 Emit = Callable[..., None]
 
 
-@dataclass
-class ScenarioOutcome:
-    folder: str  # the scenario folder's name
-    verdict: Verdict
-    skipped: bool = False  # finished in an earlier run
-    timings: dict[str, float] = field(default_factory=dict)
-    path: Path | None = None  # the scenario folder
-
-    def scenario(self) -> Scenario | None:
-        """The scenario as verified (its FSM relaxed where the verdict says so)."""
-        return ScenarioFolder(self.path).scenario() if self.path else None
-
-    def trace(self) -> Trace | None:
-        return read_model(self.path / ScenarioFolder.TRACE, Trace).value if self.path else None
 
 
 @dataclass
@@ -110,146 +100,6 @@ def folder_names(paths: list[CausePath]) -> list[str]:
     return [f"{i:02d}-{slug(p.events[0])}" for i, p in enumerate(paths, start=1)]
 
 
-def _failed(status: str, reason: str, scenario: Scenario | None = None) -> Verdict:
-    extra: dict[str, Any] = {}
-    if scenario is not None:
-        extra = {"conflicts": list(scenario.solver.conflicts),
-                 "placement_relaxations": list(scenario.solver.relaxations),
-                 "fallbacks": list(scenario.fallbacks)}
-    return Verdict(feasible=False, status=status, reason=reason, **extra)  # type: ignore[arg-type]
-
-
-def _fatal(exc: BaseException) -> bool:
-    """Model errors that a later rerun can fix: they stop the run instead of becoming verdicts."""
-    return isinstance(exc, LLMError) and not isinstance(exc, MalformedAnswerError)
-
-
-# --- stage: ground -------------------------------------------------------------------------------
-
-
-def _robot_names(backend: DomainBackend) -> tuple[str, ...]:
-    return (backend.report_hints.robot, *backend.wording.robot_names)
-
-
-def _model_fidelity(backend: DomainBackend, scenario: Scenario, llm: LLM) -> Scenario:
-    """Where rules cannot tell whether the scenario shows its cause (its words name no asset),
-    the model's yes/no answer, kept on the scenario for the verifier."""
-    rules = fidelity.check_rules(scenario, backend.database(), robot=_robot_names(backend),
-                                 own=backend.own_objects(scenario.behavior))
-    if rules.status != "undecided":
-        return scenario
-    try:
-        asked = fidelity.ask_model(scenario, llm, robot=backend.report_hints.robot)
-    except KeyboardInterrupt:
-        raise
-    except Exception as exc:
-        if _fatal(exc):
-            raise
-        log.warning("fidelity question for %s failed: %s", scenario.id, exc)
-        return scenario
-    return scenario.model_copy(update={"fidelity": asked})
-
-
-def ground_stage(backend: DomainBackend, path: CausePath, llm: LLM | None, folder: ScenarioFolder, *,
-                 seed: int = 0) -> Verdict | None:
-    """Ground one cause path into ``folder``. Returns the verdict when the scenario ends here
-    (not groundable, unsatisfiable, invalid FSM), else None: ready to simulate."""
-    folder.start(path)
-    t0 = time.perf_counter()
-    try:
-        scenario = backend.ground(path, llm, seed=seed)
-    except KeyboardInterrupt:
-        raise
-    except Exception as exc:
-        if _fatal(exc):
-            raise
-        if not isinstance(exc, RegenError):  # a bug: keep the traceback; a reason is not one
-            folder.write_error(traceback.format_exc())
-        reason = str(exc) if isinstance(exc, RegenError) else f"{type(exc).__name__}: {exc}"
-        # the graph's choice cannot be honored: said as such, never swapped for another choice
-        verdict = _failed("ungroundable" if isinstance(exc, UngroundableError) else "grounding_failed", reason)
-        folder.write_verdict(verdict)
-        return verdict
-    if llm is not None:
-        scenario = _model_fidelity(backend, scenario, llm)
-    folder.write_scenario(scenario, backend.config(scenario))
-    folder.add_timings({"ground": time.perf_counter() - t0, "solve": scenario.solver.wall_time})
-    status = scenario.solver.status
-    if status in ("infeasible", "model_invalid"):
-        verdict = _failed("unsatisfiable", "the constraints cannot all hold: "
-                          + "; ".join(scenario.solver.conflicts), scenario)
-    elif status == "unknown":
-        verdict = _failed("unsatisfiable", "the solver found no placement within its time limit "
-                          "(status unknown)", scenario)
-    elif problems := validate_fsm(scenario.fsm, {e.name for e in scenario.entities}, scenario.domain):
-        verdict = _failed("invalid_scenario", "; ".join(problems), scenario)
-    else:
-        return None
-    folder.write_verdict(verdict)
-    return verdict
-
-
-# --- stage: simulate, verify, draw, export -------------------------------------------------------
-
-
-def simulate_stage(domain: str, scenario_dir: str, pictures: bool = True) -> dict[str, Any]:
-    """Simulate, verify, draw and export one grounded scenario folder. Runs in worker processes
-    too, so it takes and returns plain data; the verdict is written last."""
-    folder = ScenarioFolder(Path(scenario_dir))
-    folder.reset()
-    backend = domains.make(domain)
-    scenario = folder.scenario()
-    timings: dict[str, float] = {}
-    if scenario is None:
-        verdict = _failed("invalid_scenario", f"{folder / folder.SCENARIO} is missing or unreadable")
-        folder.write_verdict(verdict)
-        return {"verdict": verdict.model_dump(mode="json"), "timings": timings}
-    try:
-        t0 = time.perf_counter()
-        sim = backend.simulate(scenario, folder.path)
-        timings.update(sim.timings)  # the domain's own split (compile, simulate, record, ...)
-        timings["simulate_total"] = time.perf_counter() - t0
-        timings.setdefault("simulate", timings["simulate_total"])
-        folder.write_trace(sim.trace)
-        t0 = time.perf_counter()
-        verdict, judged = backend.verify(scenario, sim.trace)
-        rules = fidelity.check_rules(judged, backend.database(), robot=_robot_names(backend),
-                                     own=backend.own_objects(judged.behavior), trace=sim.trace)
-        verdict = fidelity.with_fidelity(verdict, fidelity.combine(rules, scenario.fidelity))
-        timings["verify"] = time.perf_counter() - t0
-    except KeyboardInterrupt:
-        raise
-    except Exception as exc:
-        folder.write_error(traceback.format_exc())
-        verdict = _failed("simulation_failed", str(exc) if isinstance(exc, RegenError)
-                          else f"{type(exc).__name__}: {exc}", scenario)
-        folder.add_timings(timings)
-        folder.write_verdict(verdict)
-        return {"verdict": verdict.model_dump(mode="json"), "timings": timings}
-    if judged.fsm != scenario.fsm:  # relaxed: the folder shows the FSM the verdict is about
-        folder.write_scenario(judged, backend.config(judged))
-    files = dict(sim.files)
-    steps: list[tuple[str, Callable[[], dict[str, Path]]]] = [
-        ("export", lambda: backend.export(judged, folder.path, trace=sim.trace))]
-    if pictures:
-        steps.insert(0, ("render", lambda: backend.render(judged, sim.trace, verdict, folder.path)))
-    problems: list[str] = []
-    for name, step in steps:
-        t0 = time.perf_counter()
-        try:  # a picture or an export is not worth the verdict; the failure is kept in error.txt
-            files.update(step())
-        except KeyboardInterrupt:
-            raise
-        except Exception:
-            log.warning("%s of %s failed", name, folder.name, exc_info=True)
-            problems.append(f"{name} failed:\n{traceback.format_exc()}")
-        timings[name] = time.perf_counter() - t0
-    if problems:
-        folder.write_error("\n".join(problems))
-    folder.add_files(files)
-    folder.add_timings(timings)
-    folder.write_verdict(verdict)
-    return {"verdict": verdict.model_dump(mode="json"), "timings": timings}
 
 
 def _worker_init(parent: int) -> None:
@@ -272,16 +122,6 @@ def _worker_init(parent: int) -> None:
         os._exit(1)
 
 
-def run_path(path: CausePath, folder: str | Path, *, llm: LLM | None = None, seed: int = 0,
-             pictures: bool = True) -> ScenarioOutcome:
-    """Ground, simulate and verify one cause path into ``folder`` with the main job's stages
-    (``llm=None``: the domain's rule-based grounding)."""
-    sf = ScenarioFolder(Path(folder))
-    backend = domains.make(path.behavior.domain)
-    verdict = ground_stage(backend, path, llm, sf, seed=seed)
-    if verdict is None:
-        verdict = Verdict.model_validate(simulate_stage(path.behavior.domain, str(sf.path), pictures)["verdict"])
-    return ScenarioOutcome(sf.name, verdict, timings=sf.timings(), path=sf.path)
 
 
 # --- the main job --------------------------------------------------------------------------------
@@ -341,6 +181,7 @@ def _stages(run: RunFolder, manifest: RunManifest, backend: DomainBackend, setti
     earlier_usage = dict(manifest.usage)  # of the invocations before this one
     outcomes: list[ScenarioOutcome] = []
     graph: ScenarioGraph | None = None
+    disk_full = False  # the run folder took no more (a full disk, a read-only folder)
 
     def timed(stage: str, t0: float) -> None:
         manifest.timings[stage] = manifest.timings.get(stage, 0.0) + time.perf_counter() - t0
@@ -373,6 +214,11 @@ def _stages(run: RunFolder, manifest: RunManifest, backend: DomainBackend, setti
                 folder.reset(grounding=True)
             done = folder.verdict()
             if done is not None:
+                if needs_drawing(folder, done, settings.pictures):
+                    emit("redrawing", name=name)
+                    with interrupts.deferred():
+                        redraw_stage(behavior.domain, str(folder.path), settings.pictures)
+                    interrupts.check()
                 outcomes.append(ScenarioOutcome(name, done, skipped=True, path=folder.path))
                 emit("scenario_done", name=name, feasible=done.feasible, status=done.status, skipped=True)
                 continue
@@ -423,19 +269,38 @@ def _stages(run: RunFolder, manifest: RunManifest, backend: DomainBackend, setti
         manifest.status = "failed"
         manifest.message = f"{exc}; fix this and run the same command again to resume"
         raise
+    except OSError as exc:
+        if not cannot_write(exc, run.path):
+            raise
+        error = storage_error(exc, run.path)
+        manifest.status, manifest.message = "failed", str(error)
+        disk_full = True
+        raise error from None
     finally:
         manifest.usage_last = llm.stats.as_dict()
         manifest.usage = merge_usage(earlier_usage, manifest.usage_last)
         manifest.finished = now()
         order = {n: i for i, n in enumerate(manifest.scenarios)}
         outcomes.sort(key=lambda o: order.get(o.folder, 1 << 30))
-        if graph is not None:
-            _finish(run, manifest, outcomes, emit)
-        else:
-            run.write_manifest(manifest)
-        events.close()
-        if own_llm:
-            llm.cache.close()
+        try:
+            if disk_full:  # say so in run.json; the summary and report wait for the resume
+                run.record_failure(manifest)
+            elif graph is not None:
+                _finish(run, manifest, outcomes, emit)
+            else:
+                run.write_manifest(manifest)
+        except OSError as exc:
+            if not cannot_write(exc, run.path):
+                raise
+            error = storage_error(exc, run.path)
+            manifest.status, manifest.message = "failed", str(error)
+            run.record_failure(manifest)
+            raise error from None
+        finally:
+            with contextlib.suppress(OSError):  # a full disk may refuse the last flush too
+                events.close()
+            if own_llm:
+                llm.cache.close()
     return RunResult(run.path, manifest, graph, outcomes)
 
 
@@ -481,6 +346,8 @@ def _finish(run: RunFolder, manifest: RunManifest, outcomes: list[ScenarioOutcom
     try:
         write_report(run.path, manifest=manifest.model_dump(mode="json"))
     except Exception as exc:  # the report must never cost the run; say so where users look
+        if cannot_write(exc, run.path):  # but a full disk stops the run (resumed later)
+            raise
         log.warning("report failed: %s", exc, exc_info=True)
         manifest.message = (manifest.message + "; " if manifest.message else "") + f"report failed: {exc}"
     manifest.timings["report"] = time.perf_counter() - t0
@@ -489,4 +356,4 @@ def _finish(run: RunFolder, manifest: RunManifest, outcomes: list[ScenarioOutcom
 
 
 __all__ = ["RunManifest", "RunResult", "RunSettings", "ScenarioOutcome", "generate", "ground_stage",
-           "run_path", "select_paths", "simulate_stage"]
+           "needs_drawing", "redraw_stage", "run_path", "select_paths", "simulate_stage"]

@@ -1,6 +1,6 @@
-"""The run folder: one module that lays it out, writes it, reads it and decides how to resume it.
+"""The run folder: one package that lays it out, writes it, reads it and decides how to resume it.
 
-The pipeline, the report, evaluation and the CLI all go through this module (layout and
+The pipeline, the report, evaluation and the CLI all go through this package (layout and
 guarantees: docs/run-folder.md). Writes are atomic (temporary file + rename); a scenario is
 finished when its ``verdict.json`` exists, which is written last; ``run.json`` says ``done``
 only after everything else of the run is on disk. A folder is used by one process at a time
@@ -8,164 +8,42 @@ only after everything else of the run is on disk. A folder is used by one proces
 difference stops with a message, unless the user asks for a fresh start.
 
 Readers never raise for a missing or broken file: they return a :class:`Loaded` with the
-problem, so a half-finished or hand-edited run can still be shown.
+problem, so a half-finished or hand-edited run can still be shown (:mod:`.readers`).
+``run.json`` is :mod:`.manifest`; what ``--fresh`` may remove is :mod:`.fresh`.
 """
 
 from __future__ import annotations
 
-import datetime as dt
-import json
 import os
 import shutil
 from collections.abc import Iterator
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, ClassVar, TypeVar
+from typing import Any, ClassVar
 
-from pydantic import BaseModel, Field, ValidationError
-
-from regen.core.base import Model
 from regen.core.behavior import Behavior
 from regen.core.graph import CausePath, ScenarioGraph
 from regen.core.io import atomic_write_text, write_json
 from regen.core.scenario import Scenario
 from regen.core.trace import Trace
 from regen.core.verdict import Verdict
-from regen.errors import RunError
-from regen.expand.expansion import Limits
-
-M = TypeVar("M", bound=BaseModel)
-
-MAX_JSON_BYTES = 50_000_000  # larger files are not parsed by readers (a trace can be big)
-MAX_TEXT_CHARS = 20_000  # error.txt beyond this is cut when read for display
-
-_LIMITS = Limits()  # the one place for expansion defaults; the settings below take them from it
-
-
-class RunSettings(Model):
-    """How a run was made. Defaults are those of the main job (``regen generate``)."""
-
-    llm: str = "local"
-    depth: int = _LIMITS.max_depth  # event layers behind the behavior
-    max_nodes: int = _LIMITS.max_nodes  # accepted cause events
-    max_scenarios: int = 3
-    causes: int = _LIMITS.max_causes  # candidates per proposal call
-    max_entities: int = _LIMITS.max_entities  # entities kept per event
-    prior: str | None = None
-    candidates: list[str] = Field(default_factory=list)  # causes of the behavior to judge too
-    forced_causes: list[str] = Field(default_factory=list)  # causes accepted whatever the judge says
-    seed: int = 0
-    workers: int = 1  # processes for simulation (does not change results)
-    llm_timeout: float | None = None  # [s] per model request; None: REGEN_LLM_TIMEOUT, else 120
-    pictures: bool = True  # GIFs and key frames (does not change verdicts)
-
-    #: Fields whose change changes what a run produces: a resume must keep them.
-    RESULT_FIELDS: ClassVar[tuple[str, ...]] = ("llm", "depth", "max_nodes", "max_scenarios", "causes",
-                                      "max_entities", "prior", "candidates", "forced_causes", "seed")
-
-    def limits(self) -> Limits:
-        return Limits(max_depth=self.depth, max_nodes=self.max_nodes, max_causes=self.causes,
-                      max_entities=self.max_entities)
+from regen.errors import ConfigError, RunError
+from regen.runfolder.manifest import RunManifest, RunSettings, merge_usage, now
+from regen.runfolder.readers import (
+    MAX_JSON_BYTES,
+    MAX_TEXT_CHARS,
+    Loaded,
+    read_json,
+    read_model,
+    read_text,
+)
 
 
-class RunManifest(Model):
-    """``run.json``."""
-
-    behavior: Behavior
-    settings: RunSettings
-    domain_settings: dict[str, str | None] = Field(default_factory=dict)  # e.g. the resolved ego template
-    status: str = "running"  # running, interrupted, failed, done
-    started: str = ""
-    finished: str | None = None
-    timings: dict[str, float] = Field(default_factory=dict)  # stage -> wall seconds, over all invocations
-    usage: dict[str, Any] = Field(default_factory=dict)  # model usage over every invocation of the run
-    usage_last: dict[str, Any] = Field(default_factory=dict)  # model usage of the last invocation
-    scenarios: list[str] = Field(default_factory=list)  # folder names, in run order
-    message: str = ""
-
-
-def merge_usage(a: dict[str, Any], b: dict[str, Any]) -> dict[str, Any]:
-    """Sum two usage records (``regen.llm`` ``UsageStats.as_dict``) counter by counter."""
-
-    def add(x: Any, y: Any) -> Any:
-        if isinstance(x, dict) and isinstance(y, dict):
-            return {k: add(x.get(k), y.get(k)) if k in x and k in y else (x.get(k) if k in x else y[k])
-                    for k in {**x, **y}}
-        if isinstance(x, (int, float)) and isinstance(y, (int, float)):
-            return x + y
-        return y if y is not None else x
-
-    return add(a or {}, b or {})
-
-
-def now() -> str:
-    return dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")
-
-
-# --- defensive readers ---------------------------------------------------------------------------
-
-
-@dataclass
-class Loaded:
-    """The outcome of reading one file: the value, or why there is none."""
-
-    value: Any = None
-    problem: str | None = None  # 'missing' or 'unreadable: ...'
-
-    @property
-    def ok(self) -> bool:
-        return self.problem is None
-
-
-def _short(exc: BaseException, limit: int = 200) -> str:
-    msg = f"{type(exc).__name__}: {exc}"
-    return msg if len(msg) <= limit else msg[:limit] + "..."
-
-
-def read_json(path: Path) -> Loaded:
-    """Parse a JSON file; a missing, oversized or broken file gives a problem, not an exception."""
-    if not path.is_file():
-        return Loaded(problem="missing")
-    try:
-        if path.stat().st_size > MAX_JSON_BYTES:
-            return Loaded(problem=f"unreadable: larger than {MAX_JSON_BYTES // 1_000_000} MB")
-        return Loaded(json.loads(path.read_text(encoding="utf-8")))
-    except (OSError, UnicodeDecodeError, ValueError, RecursionError) as exc:
-        return Loaded(problem=f"unreadable: {_short(exc)}")
-
-
-def read_model(path: Path, model: type[M], key: str | None = None) -> Loaded:
-    """Read a JSON file (or its ``key`` member) as a pydantic model."""
-    raw = read_json(path)
-    if not raw.ok:
-        return raw
-    data = raw.value
-    if key is not None:
-        if not isinstance(data, dict) or key not in data:
-            return Loaded(problem=f"unreadable: no {key!r} member")
-        data = data[key]
-    try:
-        return Loaded(model.model_validate(data))
-    except ValidationError as exc:
-        first = exc.errors()[0]
-        where = ".".join(str(p) for p in first.get("loc", ()))
-        return Loaded(problem=f"unreadable: {where or 'value'}: {first.get('msg', 'invalid')}"
-                              f" ({exc.error_count()} error(s))")
-    except Exception as exc:  # model validators may raise domain errors (e.g. GraphCycleError)
-        return Loaded(problem=f"unreadable: {_short(exc)}")
-
-
-def read_text(path: Path, limit: int = MAX_TEXT_CHARS) -> Loaded:
-    """Read a text file, cut to ``limit`` characters (a note says how much was left out)."""
-    if not path.is_file():
-        return Loaded(problem="missing")
-    try:
-        text = path.read_text(encoding="utf-8", errors="replace")
-    except OSError as exc:
-        return Loaded(problem=f"unreadable: {_short(exc)}")
-    if len(text) > limit:
-        text = text[:limit] + f"\n[... {len(text) - limit} more characters in the file]"
-    return Loaded(text)
+def out_folder(value: str | os.PathLike[str], option: str = "--out") -> Path:
+    """The folder a command's ``option`` names; ConfigError for an empty value (``Path("")`` is
+    the current folder, which would receive a whole run unasked)."""
+    if not str(value).strip():
+        raise ConfigError(f"{option} is empty: give a folder path, e.g. {option} runs/my-run")
+    return Path(value)
 
 
 # --- one scenario folder -------------------------------------------------------------------------
@@ -327,13 +205,32 @@ class RunFolder:
         got = read_model(self / self.MANIFEST, RunManifest)
         if got.problem == "missing":
             raise RunError(f"{self.path} is not a run folder (no run.json)")
-        if not got.ok:
-            raise RunError(f"{self / self.MANIFEST} is {got.problem}; run `regen generate` again with "
-                           f"--out {self.path} --fresh to start over (the model cache is kept)")
+        if not got.ok:  # never advise --fresh here: the folder may not be a run at all
+            raise RunError(f"{self / self.MANIFEST} is {got.problem}; regen does not overwrite a "
+                           f"folder it cannot read: repair that file, or move {self.path} aside, or "
+                           "give `regen generate` another --out")
         return got.value
 
     def write_manifest(self, manifest: RunManifest) -> None:
         write_json(self / self.MANIFEST, manifest)
+
+    def record_failure(self, manifest: RunManifest) -> bool:
+        """Write the manifest of a run that stops because the disk took no more: atomically if
+        possible, else over the old run.json in place (a full disk has no room for a temporary
+        file, but the old file's blocks are reused). Returns whether it was written."""
+        try:
+            self.write_manifest(manifest)
+            return True
+        except OSError:
+            pass
+        data = (manifest.model_dump_json(indent=2) + "\n").encode("utf-8")
+        try:
+            with open(self / self.MANIFEST, "r+b") as fh:  # not truncated first: blocks kept
+                fh.write(data)
+                fh.truncate(len(data))
+            return True
+        except OSError:
+            return False
 
     def is_run(self) -> bool:
         return (self / self.MANIFEST).is_file()
@@ -389,44 +286,67 @@ class RunFolder:
             os.close(self._lock_fd)  # closing releases the lock
             self._lock_fd = None
 
+    #: Top-level files a run writes; ``--fresh`` removes them (and their temporary files).
+    RUN_FILES: ClassVar[tuple[str, ...]] = (MANIFEST, GRAPH, "graph.png", "graph.html", EVENTS, SUMMARY,
+                                            REPORT)
+    #: Top-level entries a run keeps over ``--fresh``: the lock, the model cache (answers are keyed
+    #: by model and prompt, so they stay valid) and ``regen test`` results (another command's).
+    KEPT: ClassVar[tuple[str, ...]] = (LOCK, CACHE, f"{CACHE}-wal", f"{CACHE}-shm", f"{CACHE}-journal",
+                                       TESTS)
+
     def clear(self) -> None:
-        """Remove the run's results for a fresh start; the model cache is kept (answers are
-        keyed by model and prompt, so they stay valid)."""
-        for name in (self.MANIFEST, self.GRAPH, "graph.png", "graph.html", self.EVENTS, self.SUMMARY,
-                     self.REPORT):
-            (self / name).unlink(missing_ok=True)
-        shutil.rmtree(self / self.SCENARIOS, ignore_errors=True)
+        """Remove the run's results for a fresh start: only what a run writes, and nothing at
+        all when the folder holds anything else (:func:`regen.runfolder.fresh.fresh_plan`)."""
+        from regen.runfolder.fresh import fresh_plan
+
+        for p in fresh_plan(self):
+            if p.name == self.SCENARIOS and p.parent == self.path:
+                try:
+                    p.rmdir()  # empty now; a file that appeared meanwhile keeps it
+                except OSError:
+                    pass
+            elif p.is_dir() and not p.is_symlink():
+                shutil.rmtree(p)
+            else:
+                p.unlink(missing_ok=True)
 
     def open(self, behavior: Behavior, settings: RunSettings, domain_settings: dict[str, str | None],
              *, fresh: bool = False) -> RunManifest:
         """Lock the folder and return the manifest to run under: a new one, or the stored one
         when this is a resume with the same behavior and result-changing settings."""
         self._check_writable()
+        had_lock = (self / self.LOCK).exists()
         self.lock()
         try:
-            if fresh:
-                self.clear()
-            if not self.is_run():
-                return RunManifest(behavior=behavior, settings=settings,
-                                   domain_settings=domain_settings, started=now())
-            old, note = self._read_or_rebuild(behavior, settings, domain_settings)
-            if (old.behavior.text, old.behavior.domain) != (behavior.text, behavior.domain):
-                raise RunError(f"{self.path} holds a run of another behavior ('{old.behavior.text}', "
-                               f"{old.behavior.domain}); use another --out folder, or --fresh to "
-                               "replace it")
-            diffs = [f"{k}: {getattr(old.settings, k)!r} then, {getattr(settings, k)!r} now"
-                     for k in RunSettings.RESULT_FIELDS if getattr(old.settings, k) != getattr(settings, k)]
-            diffs += [f"{k}: {old.domain_settings.get(k)!r} then, {v!r} now"
-                      for k, v in domain_settings.items() if old.domain_settings.get(k) != v]
-            if diffs:
-                raise RunError(f"{self.path} was made with other settings ({'; '.join(diffs)}); "
-                               "rerun with the same options to resume it, add --fresh to start over "
-                               "(the model cache is kept), or use another --out")
-            return old.model_copy(update={"status": "running", "finished": None, "message": note,
-                                          "settings": settings})
-        except BaseException:
+            return self._open(behavior, settings, domain_settings, fresh)
+        except BaseException as exc:
+            if isinstance(exc, RunError) and not had_lock:  # a refused folder keeps nothing of ours
+                (self / self.LOCK).unlink(missing_ok=True)
             self.unlock()
             raise
+
+    def _open(self, behavior: Behavior, settings: RunSettings, domain_settings: dict[str, str | None],
+              fresh: bool) -> RunManifest:
+        if fresh:
+            self.clear()
+        if not self.is_run():
+            return RunManifest(behavior=behavior, settings=settings,
+                               domain_settings=domain_settings, started=now())
+        old, note = self._read_or_rebuild(behavior, settings, domain_settings)
+        if (old.behavior.text, old.behavior.domain) != (behavior.text, behavior.domain):
+            raise RunError(f"{self.path} holds a run of another behavior ('{old.behavior.text}', "
+                           f"{old.behavior.domain}); use another --out folder, or --fresh to "
+                           "replace it (only the run's files are removed)")
+        diffs = [f"{k}: {getattr(old.settings, k)!r} then, {getattr(settings, k)!r} now"
+                 for k in RunSettings.RESULT_FIELDS if getattr(old.settings, k) != getattr(settings, k)]
+        diffs += [f"{k}: {old.domain_settings.get(k)!r} then, {v!r} now"
+                  for k, v in domain_settings.items() if old.domain_settings.get(k) != v]
+        if diffs:
+            raise RunError(f"{self.path} was made with other settings ({'; '.join(diffs)}); "
+                           "rerun with the same options to resume it, add --fresh to start over "
+                           "(the model cache is kept), or use another --out")
+        return old.model_copy(update={"status": "running", "finished": None, "message": note,
+                                      "settings": settings})
 
 
 def list_runs(root: Path) -> list[tuple[Path, RunManifest | None, str | None]]:
@@ -468,6 +388,6 @@ def read_tests(run: Path) -> dict[str, Loaded]:
     return out
 
 
-__all__ = ["Loaded", "RunFolder", "RunManifest", "RunSettings", "ScenarioFolder", "list_runs",
-           "merge_usage", "now", "read_graph", "read_json", "read_model", "read_summary", "read_tests",
-           "read_text"]
+__all__ = ["MAX_JSON_BYTES", "MAX_TEXT_CHARS", "Loaded", "RunFolder", "RunManifest", "RunSettings",
+           "ScenarioFolder", "list_runs", "merge_usage", "now", "out_folder", "read_graph", "read_json",
+           "read_model", "read_summary", "read_tests", "read_text"]
