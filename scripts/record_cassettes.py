@@ -39,14 +39,14 @@ class UsedCache(CallCache):
             self.import_json(seed)
         self.used: set[str] = set()
 
-    def get(self, key: str):
-        got = super().get(key)
+    def get(self, key: str, *, failed: bool = False):
+        got = super().get(key, failed=failed)
         if got is not None:
             self.used.add(key)
         return got
 
-    def put(self, key, provider_id, purpose, completion, latency) -> None:
-        super().put(key, provider_id, purpose, completion, latency)
+    def put(self, key, provider_id, purpose, completion, latency, *, failed: bool = False) -> None:
+        super().put(key, provider_id, purpose, completion, latency, failed=failed)
         if hasattr(self, "used"):
             self.used.add(key)
 
