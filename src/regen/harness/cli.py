@@ -2,8 +2,8 @@
 any domain whose backend has a policy harness.
 
 A thin layer over :func:`regen.harness.suite.run_tests`. Mounted by :mod:`regen.cli`
-(``app.command("test")(test_command)``). Exit code: 0 when every test passed (or was skipped),
-1 when any failed, 2 for a bad SPEC, folder or option.
+(``app.command("test")(test_command)``). Exit code: 0 when every test passed (or was skipped)
+and at least one ran, 1 when any failed or none ran, 2 for a bad SPEC, folder or option.
 """
 
 from __future__ import annotations
@@ -90,6 +90,11 @@ def test_command(
     console.print(f"wrote {escape(str(files['tests']))} and {escape(str(files['junit']))}")
     console.print(_rerender(run_dir, dest))
     if s["failed"]:
+        raise typer.Exit(code=1)
+    if s["passed"] == 0:  # nothing was tested: a CI job must not read that as green
+        Console(stderr=True, soft_wrap=True).print(
+            "[red]error:[/red] no test ran: the run has no verified scenario to test (see its "
+            "report), or every case was skipped")
         raise typer.Exit(code=1)
 
 

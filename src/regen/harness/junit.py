@@ -3,11 +3,22 @@ failure's message naming its cause (with the word "collision" when it is one).""
 
 from __future__ import annotations
 
+import json
+import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from regen.core.io import atomic_write_text, write_json
 from regen.harness.cases import SuiteReport
+
+#: Characters XML 1.0 forbids (controls other than tab and newlines, U+FFFE/U+FFFF) and lone
+#: surrogates, which cannot even be encoded: a policy's message may hold any of them.
+_NOT_XML = re.compile("[^\t\n\r\u0020-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
+
+
+def xml_safe(text: str) -> str:
+    """``text`` with every character XML 1.0 forbids replaced by U+FFFD."""
+    return _NOT_XML.sub("\ufffd", text)
 
 
 def junit_xml(report: SuiteReport) -> str:
@@ -39,9 +50,10 @@ def junit_xml(report: SuiteReport) -> str:
             ET.SubElement(tc, "skipped", message=c.message)
         elif c.status == "failed":
             fail = ET.SubElement(tc, "failure", message=c.message, type=c.cause or "failure")
-            fail.text = c.model_dump_json(indent=2)
+            fail.text = json.dumps(c.model_dump(mode="json"), indent=2, ensure_ascii=False, default=str)
     ET.indent(root)
-    return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+    body = xml_safe(ET.tostring(root, encoding="unicode"))  # a CI system must always read it
+    return '<?xml version="1.0" encoding="UTF-8"?>\n' + body + "\n"
 
 
 def write_report(report: SuiteReport, out_dir: str | Path) -> dict[str, Path]:
@@ -54,4 +66,4 @@ def write_report(report: SuiteReport, out_dir: str | Path) -> dict[str, Path]:
             "junit": atomic_write_text(out / "junit.xml", junit_xml(report))}
 
 
-__all__ = ["junit_xml", "write_report"]
+__all__ = ["junit_xml", "write_report", "xml_safe"]

@@ -179,3 +179,33 @@ def test_cli_with_a_users_policy_file(run_dir, tmp_path):
     assert "report: " in res.output and "not in it" not in res.output
     res = CliRunner().invoke(make_app(), [str(run_dir), "--policy", "no-such-policy"])
     assert res.exit_code == 2 and "unknown policy" in res.output
+
+
+@pytest.mark.parametrize("hostile", ["a\x01b", "end\ufffe", "lone \ud800 surrogate", "bell\x07 and \x1b[31mred"])
+def test_junit_is_well_formed_whatever_a_policy_says(run_dir, tmp_path, hostile):
+    report = run_tests(run_dir, "constant-speed")
+    (case,) = report.cases
+    report = report.model_copy(update={"cases": [case.model_copy(update={"message": f"policy said {hostile}"})]})
+    files = write_report(report, tmp_path / "out")
+    root = ET.parse(files["junit"]).getroot()  # well-formed XML 1.0, written without an error
+    failure = next(root.iter("failure"))
+    assert failure.get("message").startswith("policy said ") and "\ufffd" in failure.get("message")
+    assert json.loads(files["tests"].read_text())["summary"]["failed"] == 1
+
+
+def test_no_test_ran_is_exit_1_not_green(run_dir, tmp_path):
+    import shutil
+
+    from typer.testing import CliRunner
+
+    from regen.harness.cli import make_app
+
+    run = tmp_path / "run"
+    shutil.copytree(run_dir, run)
+    for v in run.glob("scenarios/*/verdict.json"):  # nothing verified: every case is skipped
+        data = json.loads(v.read_text())
+        data.update(feasible=False, status="cause_not_shown")
+        v.write_text(json.dumps(data))
+    res = CliRunner().invoke(make_app(), [str(run), "--policy", "constant-speed", "--out", str(tmp_path / "o")])
+    assert res.exit_code == 1, res.output
+    assert "no test ran" in " ".join(res.output.split())
