@@ -73,6 +73,12 @@ class _Line(PolicyHarness):
     def load_policy(self, spec):
         raise NotImplementedError
 
+    def action_to_wire(self, action):
+        return [float(action)]
+
+    def action_from_wire(self, data):
+        return data[0]
+
     def prepare(self, scenario):
         return scenario
 

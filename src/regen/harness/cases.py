@@ -32,8 +32,9 @@ class CaseResult(Model):
     scenario_id: str = ""
     variant: int = 0
     status: str  # 'passed', 'failed', 'skipped'
-    # 'collision', 'policy_exception', 'policy_invalid_action', 'policy_timeout', an incident's
-    # kind (e.g. 'red_light', 'displaced'), 'state_not_reached', 'error'
+    # 'collision', 'policy_exception', 'policy_invalid_action', 'policy_timeout', 'policy_crash'
+    # (its process ended), an incident's kind (e.g. 'red_light', 'displaced'),
+    # 'state_not_reached', 'error' (the scenario could not be run: JUnit error)
     cause: str | None = None
     message: str = ""
     collision: bool = False
@@ -79,6 +80,7 @@ class SuiteReport(Model):
         ran = self.ran
         return {"tests": len(ran), "passed": sum(c.passed for c in ran),
                 "failed": sum(not c.passed for c in ran), "skipped": len(self.cases) - len(ran),
+                "errors": sum(c.cause == "error" for c in ran),
                 "collisions": sum(c.collision for c in ran)}
 
     def collision_line(self) -> str:
@@ -88,7 +90,7 @@ class SuiteReport(Model):
 
 def case_line(c: CaseResult) -> str:
     """One terminal line per scenario variant."""
-    tag = {"passed": "PASS", "failed": "FAIL", "skipped": "SKIP"}[c.status]
+    tag = "ERROR" if c.cause == "error" else {"passed": "PASS", "failed": "FAIL", "skipped": "SKIP"}[c.status]
     ttc = f"  (min TTC {c.min_ttc:.2f} s)" if c.min_ttc is not None else ""
     name = f"{c.scenario}[variant {c.variant}]" if c.variant or c.adversarial else c.scenario
     return f"{tag}  {name}  {c.message}{ttc if c.status != 'skipped' else ''}"

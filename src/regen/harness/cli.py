@@ -8,6 +8,7 @@ and at least one ran, 1 when any failed or none ran, 2 for a bad SPEC, folder or
 
 from __future__ import annotations
 
+import hashlib
 import re
 from pathlib import Path
 from typing import Annotated
@@ -19,15 +20,23 @@ from rich.markup import escape
 from regen.core.text import clean
 from regen.errors import RegenError
 
-_STYLE = {"PASS": "green", "FAIL": "red", "SKIP": "yellow"}
+_STYLE = {"PASS": "green", "FAIL": "red", "SKIP": "yellow", "ERROR": "red"}
 
 
 def default_out(run_dir: Path, policy: str) -> Path:
-    """RUN_DIR/tests/<policy as a file name>: one folder per policy tested."""
+    """RUN_DIR/tests/<policy as a file name>: one folder per policy spec. A built-in or module
+    spec is its own name; a policy file adds a short hash of its absolute path, so two files
+    with one name in different folders never share a folder."""
     from regen.runfolder import RunFolder
 
-    where, _, attr = policy.rpartition(":")
-    name = f"{Path(where).stem}-{attr}" if where else policy
+    spec = policy.strip()
+    file_part = spec if spec.endswith(".py") else spec.rpartition(":")[0]
+    if file_part.endswith(".py"):
+        attr = "policy" if spec.endswith(".py") else spec.rpartition(":")[2]
+        where = str(Path(file_part).expanduser().absolute())
+        name = f"{Path(file_part).stem}-{attr}-{hashlib.sha1(where.encode()).hexdigest()[:6]}"
+    else:
+        name = spec.replace(":", "-")
     safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("._") or "policy"
     return Path(run_dir) / RunFolder.TESTS / safe
 
@@ -60,41 +69,57 @@ def test_command(
     """Run a policy in place of the scripted robot in every verified scenario of a run."""
     from regen.harness.adversarial import DEFAULT_BUDGET, summary_lines
     from regen.harness.cases import case_line
-    from regen.harness.junit import write_report
     from regen.harness.pictures import keep_failures
     from regen.harness.suite import open_suite, run_tests
+    from regen.runfolder import out_folder
 
     console = Console(highlight=False, soft_wrap=True)
+    err = Console(stderr=True, soft_wrap=True)
 
     def show(case) -> None:
         line = case_line(case)
-        tag = line[:4]
-        console.print(f"[{_STYLE[tag]}]{tag}[/]{escape(clean(line[4:]))}")
+        tag, rest = line.split("  ", 1)
+        console.print(f"[{_STYLE[tag]}]{tag}[/]  {escape(clean(rest))}")
 
+    files: dict[str, Path] = {}
     try:
+        dest = (out_folder(out) if out is not None else None)
         _, _, harness = open_suite(run_dir)
         policy = policy or next(iter(harness.builtin), "")
-        dest = out or default_out(run_dir, policy)
+        dest = (dest or default_out(run_dir, policy)).absolute()
         n = variants or (DEFAULT_BUDGET if adversarial else 1)
         report = run_tests(run_dir, policy, variants=n, seed=seed, step_timeout=step_timeout,
                            oracle=oracle, adversarial=adversarial, on_case=show, harness=harness,
-                           on_episode=keep_failures(dest, harness, policy=policy))
-        files = write_report(report, dest)
+                           on_episode=keep_failures(dest, harness, policy=policy), out=dest,
+                           on_note=lambda note: err.print(f"[yellow]note:[/yellow] {escape(clean(note))}"))
+        files = {"tests": dest / "tests.json", "junit": dest / "junit.xml"}
+    except KeyboardInterrupt:
+        err.print("[yellow]interrupted:[/yellow] the finished tests are kept; run the same command again "
+                  "to resume")
+        raise typer.Exit(code=130) from None
     except RegenError as exc:
-        Console(stderr=True, soft_wrap=True).print(f"[red]error:[/red] {escape(clean(str(exc)))}")
+        err.print(f"[red]error:[/red] {escape(clean(str(exc)))}")
         raise typer.Exit(code=exc.exit_code) from exc
+    except OSError as exc:
+        from regen.core.io import cannot_write, storage_error
+
+        target = dest if dest is not None else Path(run_dir)
+        if not cannot_write(exc, target) and not cannot_write(exc, Path(run_dir)):
+            raise
+        err.print(f"[red]error:[/red] {escape(clean(str(storage_error(exc, target))))}")
+        raise typer.Exit(code=2) from None
     s = report.summary()
     for line in summary_lines(report, harness.parameter_units):
         console.print(escape(clean(line)))
-    console.print(f"{s['passed']}/{s['tests']} passed, {s['skipped']} skipped; {report.collision_line()}")
+    errors = f", {s['errors']} could not run" if s["errors"] else ""
+    console.print(f"{s['passed']}/{s['tests']} passed, {s['skipped']} skipped{errors}; {report.collision_line()}")
     console.print(f"wrote {escape(str(files['tests']))} and {escape(str(files['junit']))}")
     console.print(_rerender(run_dir, dest))
     if s["failed"]:
         raise typer.Exit(code=1)
     if s["passed"] == 0:  # nothing was tested: a CI job must not read that as green
-        Console(stderr=True, soft_wrap=True).print(
-            "[red]error:[/red] no test ran: the run has no verified scenario to test (see its "
-            "report), or every case was skipped")
+        err.print("[red]error:[/red] no test ran: the run has no verified scenario to test (see its "
+                  "report), or every case was skipped")
         raise typer.Exit(code=1)
 
 

@@ -16,6 +16,7 @@ infractions, displaced objects, a time budget), the feasible set its variants ar
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -67,6 +68,19 @@ class TemplateRun:
     error: str = ""
 
 
+def wire_numbers(data: Any, sizes: tuple[int, ...]) -> list[float]:
+    """``data`` from a policy's process as a list of finite floats of one of ``sizes``;
+    ValueError otherwise (what :meth:`PolicyHarness.action_from_wire` checks first)."""
+    if not isinstance(data, list) or len(data) not in sizes:
+        raise ValueError(f"expected {' or '.join(map(str, sizes))} numbers, got {str(data)[:80]}")
+    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in data):
+        raise ValueError(f"expected numbers, got {str(data)[:80]}")
+    out = [float(v) for v in data]
+    if not all(math.isfinite(v) for v in out):
+        raise ValueError(f"the action is not finite: {out}")
+    return out
+
+
 class PolicyHarness(ABC):
     """A domain's side of policy testing; see the module docstring."""
 
@@ -90,6 +104,17 @@ class PolicyHarness(ABC):
     def load_policy(self, spec: str) -> Policy:
         """A built-in name, ``path/to/file.py[:name]`` or ``module:name``; ConfigError saying
         what to give when it does not load."""
+
+    @abstractmethod
+    def action_to_wire(self, action: Any) -> list[float]:
+        """A policy's return value as plain numbers; ValueError naming what is wrong. Runs in the
+        policy's own process (:mod:`regen.harness.worker`), so converting a strange object is
+        the policy's time and the policy's fault."""
+
+    @abstractmethod
+    def action_from_wire(self, data: Any) -> Any:
+        """The domain's action from what :meth:`action_to_wire` sent (checked again: the policy's
+        process may send anything); ValueError or TypeError when it is not an action."""
 
     @abstractmethod
     def prepare(self, scenario: Scenario) -> Any:
@@ -147,4 +172,4 @@ class PolicyHarness(ABC):
         return None
 
 
-__all__ = ["Episode", "Incident", "Policy", "PolicyHarness", "TemplateRun"]
+__all__ = ["Episode", "Incident", "Policy", "PolicyHarness", "TemplateRun", "wire_numbers"]

@@ -26,9 +26,10 @@ def junit_xml(report: SuiteReport) -> str:
     s = report.summary()
     wall = sum(c.wall for c in report.cases)
     root = ET.Element("testsuites", name="regen test", tests=str(len(report.cases)),
-                      failures=str(s["failed"]), errors="0", skipped=str(s["skipped"]), time=f"{wall:.3f}")
+                      failures=str(s["failed"] - s["errors"]), errors=str(s["errors"]), skipped=str(s["skipped"]),
+                      time=f"{wall:.3f}")
     suite = ET.SubElement(root, "testsuite", name=f"regen test --policy {report.policy}",
-                          tests=str(len(report.cases)), failures=str(s["failed"]), errors="0",
+                          tests=str(len(report.cases)), failures=str(s["failed"] - s["errors"]), errors=str(s["errors"]),
                           skipped=str(s["skipped"]), time=f"{wall:.3f}")
     props = ET.SubElement(suite, "properties")
     for k, v in (("run", report.run), ("policy", report.policy), ("domain", report.domain),
@@ -49,7 +50,7 @@ def junit_xml(report: SuiteReport) -> str:
         if c.status == "skipped":
             ET.SubElement(tc, "skipped", message=c.message)
         elif c.status == "failed":
-            fail = ET.SubElement(tc, "failure", message=c.message, type=c.cause or "failure")
+            fail = ET.SubElement(tc, "error" if c.cause == "error" else "failure", message=c.message, type=c.cause or "failure")
             fail.text = json.dumps(c.model_dump(mode="json"), indent=2, ensure_ascii=False, default=str)
     ET.indent(root)
     body = xml_safe(ET.tostring(root, encoding="unicode"))  # a CI system must always read it

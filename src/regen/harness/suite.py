@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -76,21 +76,31 @@ def _template_check(run: TemplateRun) -> TemplateCheck:
 
 def _variant_cases(harness: PolicyHarness, name: str, scenario: Scenario, verdict: Verdict,
                    stored: Trace | None, *, variants: int, seed: int, adversarial: bool,
-                   run_one: Callable[[str, Scenario, int, Trace | None, dict], CaseResult]):
+                   run_one: Callable[[str, Scenario, int, Trace | None, dict], CaseResult],
+                   reuse: Callable[[int], CaseResult | None]):
     """The cases of one verified scenario's variants (variant 0: as grounded, judged by its
-    folder's verdict and trace; the others by a fresh scripted run each)."""
+    folder's verdict and trace; the others by a fresh scripted run each). ``reuse(k)``: the
+    finished case of an earlier run, which is kept without running anything."""
     try:
         found = harness.sample_variants(scenario, variants, seed, extremes=adversarial)
     except RegenError as exc:  # the scenario no longer builds a placement model: test it as grounded
         log.warning("%s: no variants: %s", name, exc)
         found = [scenario]
     for k, variant in enumerate(found):
-        if k == 0:
-            hits = ([i.message for i in harness.incidents(scenario, stored) if i.collision]
-                    if stored is not None else [])
-            template = TemplateRun(verdict=verdict, trace=stored, judged=scenario, collisions=hits)
-        else:
-            template = harness.check_template(variant)
+        kept = reuse(k)
+        if kept is not None:
+            yield kept
+            continue
+        try:
+            if k == 0:
+                hits = ([i.message for i in harness.incidents(scenario, stored) if i.collision]
+                        if stored is not None else [])
+                template = TemplateRun(verdict=verdict, trace=stored, judged=scenario, collisions=hits)
+            else:
+                template = harness.check_template(variant)
+        except Exception as exc:  # noqa: BLE001 - one broken scenario is one error case
+            yield _error_case(name, scenario.id, k, adversarial, exc)
+            continue
         check = _template_check(template)
         base = {"parameters": _numeric(variant.parameters), "adversarial": adversarial, "template": check}
         if not check.verified or (adversarial and check.collision):
@@ -102,18 +112,48 @@ def _variant_cases(harness: PolicyHarness, name: str, scenario: Scenario, verdic
             yield run_one(name, template.judged or variant, k, template.trace, base)
 
 
+def _error_case(name: str, scenario_id: str, k: int, adversarial: bool, exc: BaseException | str,
+                **base: Any) -> CaseResult:
+    """A case that could not be run: a failure of the suite, JUnit ``error``, never dropped."""
+    why = exc if isinstance(exc, str) else (str(exc) if isinstance(exc, RegenError)
+                                            else f"{type(exc).__name__}: {exc}")
+    return CaseResult(scenario=name, scenario_id=scenario_id, variant=k, status="failed", cause="error",
+                      adversarial=adversarial, message=f"the scenario could not be run: {why}", **base)
+
+
 def _numeric(parameters: dict) -> dict[str, dict[str, float]]:
     """The variant's numeric parameters per actor (what tests.json records)."""
     return {actor: {k: float(v) for k, v in p.items() if isinstance(v, (int, float)) and not isinstance(v, bool)}
             for actor, p in parameters.items()}
 
 
+def _suite_entries(rf: Any, domain: str) -> Iterator[tuple[str, Any, Scenario | None, Verdict | None, str]]:
+    """(name, folder, scenario, verdict, problem) of every scenario folder of the run in run
+    order: a scenario of another domain is left out; one whose files cannot be read comes with
+    the problem (a verified scenario must never vanish from the results)."""
+    from regen.runfolder import read_model
+
+    for name in rf.scenario_names():
+        folder = rf.scenario(name)
+        loaded = read_model(folder / folder.SCENARIO, Scenario, key="scenario")
+        verdict = read_model(folder / folder.VERDICT, Verdict)
+        if loaded.ok:
+            if loaded.value.domain != domain:
+                continue
+            problem = "" if verdict.ok or not (folder / folder.VERDICT).exists() else \
+                f"{folder.VERDICT} {verdict.problem}"
+            yield name, folder, loaded.value, verdict.value, problem
+        elif (folder / folder.SCENARIO).exists() or verdict.ok:
+            yield name, folder, None, verdict.value, f"{folder.SCENARIO} {loaded.problem}"
+
+
 def run_tests(run_dir: str | Path, policy_spec: str, *, variants: int = 1, seed: int = 0,
               step_timeout: float | None = None, oracle: str = "fsm", policy: Callable | None = None,
               on_case: Callable[[CaseResult], None] | None = None,
               on_episode: Callable[[CaseResult, object, object], None] | None = None,
-              adversarial: bool = False, harness: PolicyHarness | None = None) -> SuiteReport:
-    """Test ``policy_spec`` (or an already loaded ``policy``) on every scenario of a run.
+              adversarial: bool = False, harness: PolicyHarness | None = None,
+              out: str | Path | None = None, on_note: Callable[[str], None] | None = None) -> SuiteReport:
+    """Test ``policy_spec`` on every scenario of a run, the policy in its own process.
 
     ``variants``: parameter variants per scenario, seeded by ``seed``. ``adversarial``: the
     variants are candidates of the corner-case search (their parameters pushed to the ends of
@@ -121,52 +161,117 @@ def run_tests(run_dir: str | Path, policy_spec: str, *, variants: int = 1, seed:
     with nothing in it. ``oracle``: 'fsm' or 'safety' (see :func:`regen.harness.oracle.judge`).
     ``step_timeout`` [s] per policy call (default: the harness's); ``on_case`` is called as each
     test finishes; ``on_episode(case, episode, prepared)`` before it for each episode run
-    (:func:`regen.harness.pictures.keep_failures`). ConfigError for a bad SPEC or folder, or a
-    domain without a policy harness; faults of single scenarios become failed tests.
+    (:func:`regen.harness.pictures.keep_failures`).
+
+    ``out``: the results folder (:mod:`regen.harness.results`): locked, each case written the
+    moment it finishes, ``tests.json`` and ``junit.xml`` rebuilt after each, and a rerun of the
+    same call resumes (``on_note`` hears when it starts over). Ctrl-C lets the current case
+    finish and raises KeyboardInterrupt with every finished case written.
+
+    ``policy``: an already loaded callable run in this process instead (a library user's own
+    trusted object: it is not isolated). ConfigError for a bad SPEC or folder, or a domain
+    without a policy harness; faults of single scenarios become failed (error) tests.
     """
+    from regen.harness.process import PolicyProcess
+    from regen.harness.results import POLICY_LOG, ResultsFolder, policy_digest, scenario_digest
+    from regen.interrupts import Interrupts
     from regen.runfolder import read_model
 
     if oracle not in ORACLES:
         raise ConfigError(f"unknown oracle {oracle!r}; choose one of: {', '.join(ORACLES)}")
     if variants < 1:
         raise ConfigError(f"--variants must be at least 1 (got {variants})")
-    rf, domain, found = open_suite(run_dir)
+    results = ResultsFolder(out) if out is not None else None
+    if results is not None:
+        results.check()
+    rf, domain, found = open_suite(Path(run_dir).absolute())
     harness = harness or found
-    pol = policy if policy is not None else harness.load_policy(policy_spec)
     timeout = harness.step_timeout if step_timeout is None else step_timeout
     report = SuiteReport(run=str(rf.path), policy=policy_spec, domain=domain, robot=harness.robot,
                          oracle=oracle, seed=seed, variants=variants, adversarial=adversarial)
+    remote: PolicyProcess | None = None
+    try:
+        if results is not None:
+            results.hold_run(rf.path)
+            settings = {"policy": policy_spec, "policy_digest": policy_digest(policy_spec),
+                        "variants": variants, "seed": seed, "oracle": oracle, "step_timeout": timeout,
+                        "adversarial": adversarial, "in_process": policy is not None}
+            note = results.open(settings)
+            if note and on_note is not None:
+                on_note(note)
+        if policy is None:
+            remote = PolicyProcess(harness, policy_spec,
+                                   log_path=results.path / POLICY_LOG if results is not None else None)
+            remote.start()
+        pol = policy if policy is not None else remote
 
-    def run_one(name: str, scenario: Scenario, k: int, template_trace: Trace | None, base: dict) -> CaseResult:
-        try:
-            prep = harness.prepare(scenario)
-            t0 = time.perf_counter()
-            episode = harness.run_policy(prep, pol, step_timeout=timeout)
-            case = judge(harness, scenario, episode, folder=name, variant=k, wall=time.perf_counter() - t0,
-                         oracle=oracle, template_trace=template_trace)
-            for key, value in base.items():
-                setattr(case, key, value)
-            if on_episode is not None:  # e.g. keep the failed episode's trace and picture
-                on_episode(case, episode, prep)
-        except RegenError as exc:
-            case = CaseResult(scenario=name, scenario_id=scenario.id, variant=k, status="failed", cause="error",
-                              message=f"the scenario could not be run: {exc}", **base)
-        return case
+        def run_one(name: str, scenario: Scenario, k: int, template_trace: Trace | None, base: dict) -> CaseResult:
+            try:
+                prep = harness.prepare(scenario)
+                if remote is not None:
+                    remote.ensure_fresh()  # a policy that faulted in the last case starts afresh
+                t0 = time.perf_counter()
+                episode = harness.run_policy(prep, pol, step_timeout=timeout)
+                case = judge(harness, scenario, episode, folder=name, variant=k,
+                             wall=time.perf_counter() - t0, oracle=oracle, template_trace=template_trace)
+                for key, value in base.items():
+                    setattr(case, key, value)
+                if on_episode is not None:  # e.g. keep the failed episode's trace and picture
+                    on_episode(case, episode, prep)
+            except ConfigError:
+                raise  # the policy no longer loads: the suite cannot go on
+            except Exception as exc:  # noqa: BLE001 - one broken scenario is one error case
+                case = _error_case(name, scenario.id, k, adversarial, exc, **base)
+            return case
 
-    for name, folder, scenario, verdict in rf.scenarios_of(domain):
-        if verdict is None or not verdict.feasible:
-            why = "unfinished" if verdict is None else verdict.status
-            cases = [CaseResult(scenario=name, scenario_id=scenario.id, status="skipped", adversarial=adversarial,
-                                message=f"the scenario did not verify with the scripted {harness.robot} ({why}); "
-                                        "it tests nothing")]
-        else:
-            cases = _variant_cases(harness, name, scenario, verdict,
-                                   read_model(folder / folder.TRACE, Trace).value, variants=variants,
-                                   seed=seed, adversarial=adversarial, run_one=run_one)
-        for case in cases:
-            report.cases.append(case)
-            if on_case is not None:
-                on_case(case)
+        reused: list[CaseResult] = []
+        with Interrupts() as interrupts:
+            for name, folder, scenario, verdict, problem in _suite_entries(rf, domain):
+                digest = scenario_digest(folder.path) if results is not None else ""
+
+                def reuse(k: int, name: str = name, digest: str = digest) -> CaseResult | None:
+                    kept = results.reuse(f"{name}-v{k}", digest) if results is not None else None
+                    if kept is not None and not reused and on_note is not None:
+                        on_note("resuming: the cases this command finished before are kept, not run again")
+                    if kept is not None:
+                        reused.append(kept)
+                    return kept
+
+                if scenario is None or problem:
+                    if verdict is not None and not verdict.feasible:
+                        continue  # an unreadable scenario that did not verify tests nothing anyway
+                    cases: Any = [_error_case(name, scenario.id if scenario else "", 0, adversarial,
+                                              f"its {problem}")]
+                elif verdict is None or not verdict.feasible:
+                    why = "unfinished" if verdict is None else verdict.status
+                    cases = [CaseResult(scenario=name, scenario_id=scenario.id, status="skipped",
+                                        adversarial=adversarial,
+                                        message=f"the scenario did not verify with the scripted {harness.robot} "
+                                                f"({why}); it tests nothing")]
+                else:
+                    cases = _variant_cases(harness, name, scenario, verdict,
+                                           read_model(folder / folder.TRACE, Trace).value, variants=variants,
+                                           seed=seed, adversarial=adversarial, run_one=run_one, reuse=reuse)
+                pending = iter(cases)
+                while True:
+                    with interrupts.deferred():  # a first Ctrl-C lets this case finish and keeps it
+                        case = next(pending, None)
+                    if case is None:
+                        break
+                    report.cases.append(case)
+                    if results is not None:
+                        results.keep(case, digest)
+                        results.write(report)
+                    if on_case is not None:
+                        on_case(case)
+                    interrupts.check()
+        if results is not None:
+            results.write(report)
+    finally:
+        if remote is not None:
+            remote.close()
+        if results is not None:
+            results.close()
     return report
 
 

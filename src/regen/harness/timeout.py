@@ -13,7 +13,8 @@ from collections.abc import Callable
 
 
 class PolicyFailure(Exception):
-    """A fault of the policy under test: ``kind`` is 'exception', 'invalid_action' or 'timeout'."""
+    """A fault of the policy under test: ``kind`` is 'exception', 'invalid_action', 'timeout' or
+    'crash' (its process ended or broke the pipe's protocol)."""
 
     def __init__(self, kind: str, reason: str):
         super().__init__(reason)
@@ -35,8 +36,13 @@ def call_with_timeout(fn: Callable, arg: object, timeout: float | None) -> objec
 
     On POSIX an interval timer (SIGALRM) interrupts the policy (costs microseconds; Scenic
     itself needs the main thread and uses SIGALRM only while its own behaviors run, not here);
-    elsewhere the policy runs in a daemon thread that is abandoned on timeout.
+    elsewhere the policy runs in a daemon thread that is abandoned on timeout. A policy in its
+    own process (:class:`regen.harness.process.PolicyProcess`, what ``regen test`` runs) is
+    timed by the harness's wall clock instead and killed at the timeout.
     """
+    remote = getattr(fn, "call_within", None)
+    if remote is not None:
+        return remote(arg, timeout)
     if timeout is None:
         try:
             return fn(arg)
@@ -76,4 +82,15 @@ def call_with_timeout(fn: Callable, arg: object, timeout: float | None) -> objec
     return box.get("value")
 
 
-__all__ = ["PolicyFailure", "call_with_timeout"]
+def reset_policy(policy: object, timeout: float | None) -> None:
+    """The policy's ``reset()`` before an episode, when it has one, under the step timeout."""
+    remote = getattr(policy, "reset_within", None)
+    if remote is not None:
+        remote(timeout)
+        return
+    reset = getattr(policy, "reset", None)
+    if callable(reset):
+        call_with_timeout(lambda _: reset(), None, timeout)
+
+
+__all__ = ["PolicyFailure", "call_with_timeout", "reset_policy"]

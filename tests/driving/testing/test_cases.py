@@ -141,7 +141,7 @@ def test_reports_and_junit_parse(run_dir, tmp_path):
     report = run_tests(run_dir, "constant-speed")
     files = write_report(report, tmp_path / "out")
     data = json.loads(files["tests"].read_text())
-    assert data["summary"] == {"tests": 1, "passed": 0, "failed": 1, "skipped": 0, "collisions": 1}
+    assert data["summary"] == {"tests": 1, "passed": 0, "failed": 1, "skipped": 0, "errors": 0, "collisions": 1}
     root = ET.parse(files["junit"]).getroot()
     (case,) = root.iter("testcase")
     assert case.get("name") == f"{CHILD}[variant 0]"

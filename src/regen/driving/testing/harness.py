@@ -18,7 +18,7 @@ from regen.core.scenario import AbstractState, Scenario
 from regen.core.trace import Trace
 from regen.driving.testing import loop, policies, variants
 from regen.driving.verify.collisions import SafetyReport, analyze
-from regen.harness.contract import Episode, Incident, PolicyHarness, TemplateRun
+from regen.harness.contract import Episode, Incident, PolicyHarness, TemplateRun, wire_numbers
 
 EGO = "ego"
 
@@ -51,6 +51,13 @@ class DrivingHarness(PolicyHarness):
     load_policy = staticmethod(policies.load_policy)
     prepare = staticmethod(loop.prepare)
     run_policy = staticmethod(loop.run_policy)
+
+    def action_to_wire(self, action: Any) -> list[float]:
+        a = policies.as_action(action)
+        return [a.acceleration, a.curvature]
+
+    def action_from_wire(self, data: Any) -> policies.Action:
+        return policies.Action(*wire_numbers(data, (2,)))
 
     def incidents(self, scenario: Scenario, trace: Trace) -> list[Incident]:
         return [Incident(kind=e.kind, t=e.t, step=e.step, actors=tuple(e.actors), message=e.describe(),

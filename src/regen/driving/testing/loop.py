@@ -42,7 +42,7 @@ from regen.driving.world.plan import ActorPlan
 from regen.driving.world.triggers import warped_time
 from regen.errors import SimulationError
 from regen.harness.contract import Episode
-from regen.harness.timeout import PolicyFailure
+from regen.harness.timeout import PolicyFailure, reset_policy
 from regen.harness.timeout import call_with_timeout as _call_with_timeout
 
 STEP_TIMEOUT = 1.0  # default wall time a policy may take per step [s]
@@ -237,8 +237,11 @@ def run_policy(scenario: Scenario | Prepared, policy: Callable, *,
 
     prep = scenario if isinstance(scenario, Prepared) else prepare(scenario)
     n_steps = int(steps if steps is not None else prep.steps)
-    if hasattr(policy, "reset"):
-        policy.reset()
+    try:
+        reset_policy(policy, step_timeout)
+    except PolicyFailure as exc:
+        return Episode(trace=None, failure=exc.reason, failure_kind=exc.kind, failure_time=0.0,
+                       timings={"compile": prep.compile_time})
     driver = _Driver(prep, policy, step_timeout)
     random.seed(prep.seed)
     np.random.seed(prep.seed)

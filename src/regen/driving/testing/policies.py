@@ -107,7 +107,7 @@ def as_action(value: object) -> Action:
                          "(acceleration, curvature) pair")
     try:
         a, k = float(a), float(k)
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:
         raise ValueError(f"the policy's action is not numeric: {value!r}") from exc
     if not (math.isfinite(a) and math.isfinite(k)):
         raise ValueError(f"the policy's action is not finite: acceleration={a}, curvature={k}")

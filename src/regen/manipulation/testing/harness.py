@@ -25,9 +25,10 @@ import numpy as np
 
 from regen.core.scenario import Scenario, StateRef
 from regen.core.trace import Trace
-from regen.harness.contract import Episode, Incident, PolicyHarness, TemplateRun
+from regen.harness.contract import Episode, Incident, PolicyHarness, TemplateRun, wire_numbers
 from regen.manipulation.setting import ManipulationWorld
 from regen.manipulation.testing import loop, policies, variants
+from regen.manipulation.testing.types import Action, as_action
 
 DISPLACE_TOL = 0.05  # [m] horizontal displacement of a context object that fails the test
 TILT_TOL = 0.35  # [rad] tilt of a context object that counts as knocked over
@@ -53,6 +54,14 @@ class ManipulationHarness(PolicyHarness):
 
     # the contract's policy loading and episodes are this domain's own functions
     load_policy = staticmethod(policies.load_policy)
+
+    def action_to_wire(self, action: Any) -> list[float]:
+        a = as_action(action)
+        return [a.dx, a.dy, a.dz, a.gripper, 1.0 if a.done else 0.0]
+
+    def action_from_wire(self, data: Any) -> Action:
+        dx, dy, dz, gripper, done = wire_numbers(data, (5,))
+        return Action(dx, dy, dz, gripper=gripper, done=done != 0.0)
     prepare = staticmethod(loop.prepare)
     run_policy = staticmethod(loop.run_policy)
 

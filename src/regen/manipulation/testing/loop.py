@@ -25,7 +25,7 @@ from regen.core.scenario import Scenario
 from regen.core.trace import Trace
 from regen.errors import SimulationError
 from regen.harness.contract import Episode, Policy
-from regen.harness.timeout import PolicyFailure, call_with_timeout
+from regen.harness.timeout import PolicyFailure, call_with_timeout, reset_policy
 from regen.manipulation.behaviors import BehaviorDef
 from regen.manipulation.controller import CONTROL_EVERY, Controller
 from regen.manipulation.scene import ARM_JOINTS, EE_LINK, FINGER_JOINTS, Scene, SceneLayout
@@ -277,8 +277,7 @@ def run_policy(scenario: Scenario | Prepared, policy: Policy, *,
     t1 = time.perf_counter()
     with session:
         try:
-            if hasattr(policy, "reset"):
-                call_with_timeout(lambda _: policy.reset(), None, step_timeout)
+            reset_policy(policy, step_timeout)
             for _ in range(int(round(prep.duration / POLICY_DT))):
                 obs = session.observe()
                 t_call = time.perf_counter()

@@ -150,7 +150,7 @@ def as_action(value: object) -> Action:
                          "(dx, dy, dz[, gripper]) sequence")
     try:
         vals = [float(v) for v in nums]
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:
         raise ValueError(f"the policy's action is not numeric: {value!r}") from exc
     if not all(math.isfinite(v) for v in vals):
         raise ValueError(f"the policy's action is not finite: {vals}")

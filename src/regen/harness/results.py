@@ -1,0 +1,220 @@
+"""The folder a ``regen test`` writes: one file per finished case, kept as it finishes.
+
+``DEST/`` holds ``settings.json`` (what the cases were run with), ``cases/<scenario>-v<k>.json``
+(one per finished case, written atomically the moment it finishes), ``tests.json`` and
+``junit.xml`` (rebuilt from the cases after each one), ``policy.log`` (the policy process's
+output), ``<scenario>-v<k>/`` (a failed case's trace and picture) and ``.lock``.
+
+A rerun of the same command resumes: a finished case is kept when its scenario's files are
+unchanged, nothing is run twice. A changed policy file or setting starts over (the folder's
+own files are removed, with a message); a folder holding anything else is not touched. One
+``regen test`` at a time writes a folder (a lock), and the run folder is read under a shared
+lock that ``regen generate`` cannot take while a test reads it (nor a test while it writes).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import os
+import re
+import shutil
+from pathlib import Path
+from typing import Any
+
+from regen.core.io import atomic_write_text, write_json
+from regen.errors import ConfigError
+from regen.harness.cases import CaseResult
+from regen.harness.pictures import FAILURE_GIF, TRACE_FILE, case_folder
+
+SETTINGS = "settings.json"
+CASES = "cases"
+TESTS_JSON = "tests.json"
+JUNIT = "junit.xml"
+POLICY_LOG = "policy.log"
+LOCK = ".lock"
+RUN_LOCK = ".lock"  # regen generate's lock file in the run folder (RunFolder.LOCK)
+_CASE_FILE = re.compile(r".+-v\d+\.json")
+
+
+def case_key(case: CaseResult) -> str:
+    return case_folder(case)
+
+
+def policy_digest(spec: str) -> str | None:
+    """sha256 of the policy file a SPEC names (None for a built-in or a module): a rerun with an
+    edited file starts over."""
+    where = spec.strip()
+    if not where.endswith(".py"):
+        where = where.rpartition(":")[0]
+    if not where.endswith(".py"):
+        return None
+    try:
+        return hashlib.sha256(Path(where).expanduser().read_bytes()).hexdigest()
+    except OSError:
+        return None
+
+
+def scenario_digest(folder: Path) -> str:
+    """sha256 over a scenario folder's scenario, verdict and trace files (what a case judged)."""
+    h = hashlib.sha256()
+    for name in ("scenario.json", "verdict.json", "trace.json"):
+        try:
+            h.update((folder / name).read_bytes())
+        except OSError:
+            h.update(b"-")
+        h.update(b"\0")
+    return h.hexdigest()
+
+
+class ResultsFolder:
+    """``DEST/`` of one ``regen test``: see the module docstring."""
+
+    def __init__(self, path: str | Path):
+        self.path = Path(path).absolute()
+        self._fd: int | None = None
+        self._run_fd: int | None = None
+        self.finished: dict[str, tuple[str, CaseResult]] = {}  # case key -> (scenario digest, case)
+
+    # --- opening -------------------------------------------------------------------------
+
+    def check(self) -> None:
+        """ConfigError when the folder cannot be one (checked before anything runs)."""
+        p = self.path
+        if p.exists() and not p.is_dir():
+            raise ConfigError(f"--out {p} is a file; give a folder for tests.json and junit.xml")
+        try:
+            p.mkdir(parents=True, exist_ok=True)
+        except (FileExistsError, NotADirectoryError):
+            raise ConfigError(f"--out {p} lies under a file; give a folder path") from None
+        except OSError as exc:
+            raise ConfigError(f"cannot create {p}: {exc.strerror}; choose another --out") from None
+        if not os.access(p, os.W_OK | os.X_OK):
+            raise ConfigError(f"{p} is not writable; choose another --out")
+
+    def hold_run(self, run: Path) -> None:
+        """A shared lock on the run folder: ConfigError while regen generate writes it."""
+        import fcntl
+
+        lock = Path(run) / RUN_LOCK
+        try:
+            fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError:
+            return  # a read-only run folder: nothing can be writing it
+        try:
+            fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except OSError:
+            other = os.read(fd, 64).decode("ascii", "replace").strip() or "?"
+            os.close(fd)
+            raise ConfigError(f"regen generate (pid {other}) is still writing {run}; wait for it to "
+                              "finish, then run regen test") from None
+        self._run_fd = fd
+
+    def lock(self) -> None:
+        """Hold DEST for this process; ConfigError naming the other one."""
+        import fcntl
+
+        fd = os.open(self.path / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            other = os.read(fd, 64).decode("ascii", "replace").strip() or "?"
+            os.close(fd)
+            raise ConfigError(f"another regen test (pid {other}) is writing {self.path}; wait for it "
+                              "or give another --out") from None
+        os.ftruncate(fd, 0)
+        os.write(fd, str(os.getpid()).encode())
+        self._fd = fd
+
+    def close(self) -> None:
+        for name in ("_fd", "_run_fd"):
+            fd = getattr(self, name)
+            if fd is not None:
+                with contextlib.suppress(OSError):
+                    os.close(fd)
+                setattr(self, name, None)
+
+    def open(self, settings: dict[str, Any]) -> str | None:
+        """Lock DEST and load the cases a rerun keeps; a message when it starts over."""
+        self.lock()
+        stored = self._read(self.path / SETTINGS)
+        note = None
+        has_cases = (self.path / CASES).is_dir() and any((self.path / CASES).iterdir())
+        if stored != settings and (has_cases or stored is not None):
+            changed = sorted(k for k in set(settings) | set(stored or {})
+                             if (stored or {}).get(k) != settings.get(k))
+            what = ", ".join("the policy file" if k == "policy_digest" else k for k in changed)
+            note = (f"{self.path}: {what or 'the settings'} changed since its last run; starting over "
+                    f"(its cases are removed)")
+            self._clear()
+        write_json(self.path / SETTINGS, settings)
+        for f in sorted((self.path / CASES).glob("*.json")) if (self.path / CASES).is_dir() else []:
+            raw = self._read(f)
+            try:
+                case = CaseResult.model_validate(raw["case"])
+                digest = str(raw["digest"])
+            except (TypeError, KeyError, ValueError):
+                continue  # a damaged case file: the case runs again
+            self.finished[case_key(case)] = (digest, case)
+        return note
+
+    @staticmethod
+    def _read(path: Path) -> Any:
+        try:
+            return json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            return None
+
+    def _clear(self) -> None:
+        """Remove this folder's own files of an earlier run (case files, results, failure
+        folders holding only a trace and a picture); nothing else."""
+        cases = self.path / CASES
+        if cases.is_dir():
+            for f in cases.iterdir():
+                if f.is_file() and _CASE_FILE.fullmatch(f.name):
+                    f.unlink()
+            with contextlib.suppress(OSError):
+                cases.rmdir()
+        for name in (TESTS_JSON, JUNIT, SETTINGS):
+            with contextlib.suppress(FileNotFoundError):
+                (self.path / name).unlink()
+        for d in self.path.iterdir():
+            if d.is_dir() and re.fullmatch(r".+-v\d+", d.name):
+                self.drop_failure_files(d.name)
+
+    # --- cases ---------------------------------------------------------------------------
+
+    def reuse(self, key: str, digest: str) -> CaseResult | None:
+        """The finished case of an earlier run of the same command, when its scenario is unchanged."""
+        found = self.finished.get(key)
+        return found[1] if found is not None and found[0] == digest else None
+
+    def keep(self, case: CaseResult, digest: str) -> None:
+        """Write one finished case (atomically); a passed case's old failure files go."""
+        write_json(self.path / CASES / f"{case_key(case)}.json",
+                   {"digest": digest, "case": case.model_dump(mode="json")})
+        if case.status != "failed":
+            self.drop_failure_files(case_key(case))
+
+    def drop_failure_files(self, name: str) -> None:
+        """Remove ``DEST/<name>/`` when it holds only what a failed case leaves."""
+        d = self.path / name
+        if not d.is_dir():
+            return
+        entries = {p.name for p in d.iterdir()}
+        if entries <= {TRACE_FILE, FAILURE_GIF}:
+            shutil.rmtree(d, ignore_errors=True)
+
+    def write(self, report: Any) -> dict[str, Path]:
+        """tests.json and junit.xml of the cases so far."""
+        from regen.harness.junit import junit_xml
+
+        data = report.model_dump(mode="json")
+        data["summary"] = report.summary()
+        return {"tests": write_json(self.path / TESTS_JSON, data),
+                "junit": atomic_write_text(self.path / JUNIT, junit_xml(report))}
+
+
+__all__ = ["CASES", "JUNIT", "POLICY_LOG", "SETTINGS", "TESTS_JSON", "ResultsFolder", "case_key",
+           "policy_digest", "scenario_digest"]
