@@ -53,7 +53,7 @@ def test_command(
                     "variant 0 is the scenario as grounded (default 1). With --adversarial: the "
                     "candidates searched per scenario (default 16).", show_default=False)] = None,
     seed: Annotated[int, typer.Option(help="Seed of the variant sampling.")] = 0,
-    out: Annotated[Path | None, typer.Option(
+    out: Annotated[str | None, typer.Option(
         "--out", "-o", help="Folder for tests.json and junit.xml (default: RUN_DIR/tests/<policy>).")] = None,
     oracle: Annotated[str, typer.Option(
         help="fsm: the FSM's expected states in order, no collision and no incident; safety: no "

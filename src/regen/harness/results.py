@@ -186,9 +186,12 @@ class ResultsFolder:
     # --- cases ---------------------------------------------------------------------------
 
     def reuse(self, key: str, digest: str) -> CaseResult | None:
-        """The finished case of an earlier run of the same command, when its scenario is unchanged."""
+        """The finished case of an earlier run of the same command, when its scenario is unchanged
+        (a case that could not be run is not kept: the rerun tries it again)."""
         found = self.finished.get(key)
-        return found[1] if found is not None and found[0] == digest else None
+        if found is None or found[0] != digest or found[1].cause == "error":
+            return None  # a case that could not run is tried again
+        return found[1]
 
     def keep(self, case: CaseResult, digest: str) -> None:
         """Write one finished case (atomically); a passed case's old failure files go."""

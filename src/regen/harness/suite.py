@@ -113,12 +113,13 @@ def _variant_cases(harness: PolicyHarness, name: str, scenario: Scenario, verdic
 
 
 def _error_case(name: str, scenario_id: str, k: int, adversarial: bool, exc: BaseException | str,
-                **base: Any) -> CaseResult:
+                base: dict | None = None) -> CaseResult:
     """A case that could not be run: a failure of the suite, JUnit ``error``, never dropped."""
     why = exc if isinstance(exc, str) else (str(exc) if isinstance(exc, RegenError)
                                             else f"{type(exc).__name__}: {exc}")
+    fields = {**(base or {}), "adversarial": adversarial}
     return CaseResult(scenario=name, scenario_id=scenario_id, variant=k, status="failed", cause="error",
-                      adversarial=adversarial, message=f"the scenario could not be run: {why}", **base)
+                      message=f"the scenario could not be run: {why}", **fields)
 
 
 def _numeric(parameters: dict) -> dict[str, dict[str, float]]:
@@ -206,10 +207,10 @@ def run_tests(run_dir: str | Path, policy_spec: str, *, variants: int = 1, seed:
         pol = policy if policy is not None else remote
 
         def run_one(name: str, scenario: Scenario, k: int, template_trace: Trace | None, base: dict) -> CaseResult:
+            if remote is not None:
+                remote.ensure_fresh()  # a policy that faulted in the last case starts afresh
             try:
                 prep = harness.prepare(scenario)
-                if remote is not None:
-                    remote.ensure_fresh()  # a policy that faulted in the last case starts afresh
                 t0 = time.perf_counter()
                 episode = harness.run_policy(prep, pol, step_timeout=timeout)
                 case = judge(harness, scenario, episode, folder=name, variant=k,
@@ -218,10 +219,8 @@ def run_tests(run_dir: str | Path, policy_spec: str, *, variants: int = 1, seed:
                     setattr(case, key, value)
                 if on_episode is not None:  # e.g. keep the failed episode's trace and picture
                     on_episode(case, episode, prep)
-            except ConfigError:
-                raise  # the policy no longer loads: the suite cannot go on
             except Exception as exc:  # noqa: BLE001 - one broken scenario is one error case
-                case = _error_case(name, scenario.id, k, adversarial, exc, **base)
+                case = _error_case(name, scenario.id, k, adversarial, exc, base)
             return case
 
         reused: list[CaseResult] = []
