@@ -51,7 +51,7 @@ def test_the_scripted_policy_passes_through_its_process(run_dir, tmp_path):
     ("import time\ndef policy(o):\n    while True:\n        try:\n            time.sleep(5)\n"
      "        except BaseException:\n            pass\n", "policy_timeout"),
     ("def policy(o):\n    return (1e400 * 0, 0.0, 0.0)\n", "policy_invalid_action"),
-])
+], ids=["os._exit", "hang", "nan"])
 def test_a_faulty_policy_fails_its_case_and_the_command_ends(run_dir, tmp_path, body, cause):
     f = tmp_path / "bad.py"
     f.write_text(body)
