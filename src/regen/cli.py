@@ -13,6 +13,7 @@ import logging
 import os
 import re
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any, TypeVar
 
 import typer
@@ -21,7 +22,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from regen import domains
-from regen.errors import RegenError
+from regen.errors import ConfigError, RegenError
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -402,6 +403,63 @@ def runs_show(run: str = typer.Argument(..., help="A run folder")) -> None:
         else:
             table.add_row(shown(name), "[yellow]verdict unreadable[/]", shown(got.problem))
     console.print(table)
+
+
+@app.command("whatif")
+@friendly
+def whatif_cmd(
+    scenario_dir: str = typer.Argument(..., help="A scenario folder of a run: RUN/scenarios/<name>"),
+    set_: list[str] = typer.Option([], "--set", help="ENTITY.PROPERTY=VALUE, e.g. sedan1.brake_lights=broken "
+                                                      "(repeatable)"),
+    remove: list[str] = typer.Option([], "--remove", help="An entity of the cause chain that leaves the scene "
+                                                         "(repeatable)"),
+    add: list[str] = typer.Option([], "--add", help="A cause text that joins the chain, naming its entity, e.g. "
+                                                   "'a cyclist rides ahead' (repeatable)"),
+    ask: str | None = typer.Option(None, "--ask", help="A what-if question in words; the model answers with "
+                                                       "edits, which are shown and recorded"),
+    out: str | None = typer.Option(None, "--out", "-o", help="Folder for the counterfactual (default: "
+                                                             "RUN/whatif beside the scenario's run)"),
+    llm: str = typer.Option("local", "--llm", help=LLM_HELP),
+    replay: bool = typer.Option(False, "--replay", help="Forbid model calls: cached answers only"),
+    pictures: bool = typer.Option(True, "--pictures/--no-pictures", help="Draw the counterfactual's GIF"),
+) -> None:
+    """Counterfactual what-if: edit a scenario's cause chain, then ground, simulate and verify it again."""
+    from regen import whatif
+    from regen.runfolder import ScenarioFolder, out_folder
+
+    src = Path(scenario_dir)
+    if not (src / ScenarioFolder.SCENARIO).is_file():
+        raise ConfigError(f"{src} holds no scenario.json: give a scenario folder, RUN/scenarios/<name>")
+    edits = [whatif.parse_set(s) for s in set_]
+    edits += [whatif.Edit(op="remove", entity=e.strip()) for e in remove]
+    edits += [whatif.Edit(op="add", text=t.strip()) for t in add]
+    dest_root = out_folder(out) if out is not None else src.absolute().parent.parent / "whatif"
+    by: str = "user"
+    if ask:
+        from regen import domains
+
+        scenario = ScenarioFolder(src).scenario()
+        if scenario is None:
+            raise ConfigError(f"{src / ScenarioFolder.SCENARIO} cannot be read")
+        dest_root.mkdir(parents=True, exist_ok=True)
+        client = llm_options(llm, str(dest_root / "llm-cache.sqlite"), replay)
+        asked = whatif.ask_edits(scenario, ask, client, domains.make(scenario.domain).database())
+        console.print("the model's edits: " + "; ".join(shown(e.describe()) for e in asked))
+        edits += asked
+        by = "model"
+    if not edits:
+        raise ConfigError("no edit: give --set ENTITY.PROPERTY=VALUE, --remove ENTITY, --add 'CAUSE' or --ask 'QUESTION'")
+    with console.status("grounding, simulating and verifying the counterfactual"):
+        dest, record = whatif.run_whatif(src, edits, dest_root, question=ask, edits_by=by,  # type: ignore[arg-type]
+                                         pictures=pictures)
+    for e in record.edits:
+        console.print(f"  {shown(e.describe())}")
+    state = "[green]still explained[/]" if record.explained else "[red]no longer explained[/]"
+    console.print(f"original: {record.original_status}; counterfactual: {record.status}: the behavior is {state}")
+    console.print(f"  {shown(record.reason)}")
+    for c in record.stages_changed:
+        console.print(f"  stage {c['index']}: {shown(c['before'] or '—')} -> {shown(c['after'] or '—')}")
+    console.print(f"wrote {shown(str(dest))} (whatif.json, whatif.html)")
 
 
 def _mount_eval() -> None:
