@@ -38,8 +38,9 @@ def front_car(tmp_path_factory) -> Path:
     return folder
 
 
-def _whatif(folder: Path, *args: str):
-    return CliRunner().invoke(app, ["whatif", str(folder), *args], env={"COLUMNS": "200"})
+def _whatif(folder: Path, *args: str, judge: bool = False):
+    extra = [] if judge else ["--no-judge"]
+    return CliRunner().invoke(app, ["whatif", str(folder), *args, *extra], env={"COLUMNS": "200"})
 
 
 def _lights_on(folder: Path) -> np.ndarray:
@@ -64,6 +65,7 @@ def test_broken_brake_lights_are_the_papers_pair(front_car):
     assert (dest / "original").resolve() == front_car.resolve()  # linked, not copied
     assert record["original"] == str(front_car.resolve()) and record["edits_by"] == "user"
     assert record["explained"] and record["status"].startswith("verified")
+    assert record["judged"]["by"] == "none" and "only the simulation decided" in record["judged"]["reason"]
     scenario = json.loads((dest / "scenario.json").read_text())["scenario"]
     assert scenario["causal_graph"][0] == "the front car stops with its brake lights broken"
     # the lights are testable by predicate: lit while braking in the original, never in the counterfactual
@@ -83,6 +85,14 @@ def test_broken_brake_lights_are_the_papers_pair(front_car):
     assert ImageChops.difference(a.convert("RGB"), b.convert("RGB")).getbbox() is None
     html = (dest / "whatif.html").read_text()
     assert "still explained" in html and "brake lights broken" in html and "../../scenarios/01-front-car" in html
+    # the run's report shows the pair: both animations, the edit, the states each run showed
+    from regen.report import write_report
+
+    page = write_report(front_car.parent.parent).read_text()
+    section = page[page.index('<h2 id="whatif">'):]
+    assert "set sedan1.brake_lights = broken" in section and "still explained" in section
+    assert 'src="scenarios/01-front-car/bird_eye.gif"' in section
+    assert f'src="whatif/{dest.name}/bird_eye.gif"' in section and "off then on" in section
 
 
 def test_removing_the_cause_leaves_the_behavior_unexplained(front_car, tmp_path):
@@ -117,18 +127,40 @@ def test_adding_a_cause_grounds_its_entity(tmp_path):
                                 "text": "a cyclist rides ahead"}]
 
 
-def test_a_question_in_words_becomes_edits(front_car, tmp_path, monkeypatch):
-    provider = QueuedProvider([{"edits": [{"op": "set", "entity": "sedan1", "property": "brake_lights",
-                                           "value": "broken"}]}])
+def _queued(monkeypatch, *answers) -> QueuedProvider:
+    provider = QueuedProvider(list(answers))
     monkeypatch.setitem(registry._FACTORIES, "queued", lambda name, **kw: provider)
+    return provider
+
+
+def test_a_question_in_words_becomes_edits(front_car, tmp_path, monkeypatch):
+    provider = _queued(monkeypatch,
+                       {"edits": [{"op": "set", "entity": "sedan1", "property": "brake_lights", "value": "broken"}]},
+                       {"answer": "yes", "reason": "a car braking ahead makes the ego stop, lights or not"})
     res = _whatif(front_car, "--ask", "what if its brake lights were broken?", "--llm", "queued",
-                  "--out", str(tmp_path / "wi"), "--no-pictures")
+                  "--out", str(tmp_path / "wi"), "--no-pictures", judge=True)
     assert res.exit_code == 0, res.output
     assert "the model's edits: set sedan1.brake_lights = broken" in res.output
     _, record = _record(res)
     assert record["edits_by"] == "model" and record["question"] == "what if its brake lights were broken?"
     prompt = provider.requests[0][-1]["content"]
     assert "what if its brake lights were broken?" in prompt and '"broken"' in prompt  # the allowed values
+    assert record["judged"]["plausible"] is True and record["explained"]
+    assert "brake lights broken" in provider.requests[1][-1]["content"]  # the judge saw the edited cause
+
+
+def test_a_cause_the_judge_rejects_no_longer_explains_the_behavior(tmp_path, monkeypatch):
+    folder = tmp_path / "run" / "scenarios" / "01-red-light"
+    red = chain("stop_abruptly", "the traffic light ahead turns red", ("traffic_light", {"light_state": ["turns_red"]}))
+    assert run_path(red, folder, pictures=False).verdict.feasible
+    _queued(monkeypatch, {"answer": "no", "reason": "a green light does not make a car stop"})
+    res = _whatif(folder, "--set", "traffic_light1.light_state=green", "--llm", "queued", "--no-pictures", judge=True)
+    assert res.exit_code == 0, res.output
+    _, record = _record(res)
+    # the scripted ego stops whatever the light shows: the simulation alone would call it explained
+    assert record["status"].startswith("verified") and not record["explained"]
+    assert record["judged"]["plausible"] is False and "green light does not make a car stop" in record["reason"]
+    assert "no longer explained" in res.output
 
 
 @pytest.mark.parametrize(("args", "words"), [

@@ -422,6 +422,9 @@ def whatif_cmd(
     llm: str = typer.Option("local", "--llm", help=LLM_HELP),
     replay: bool = typer.Option(False, "--replay", help="Forbid model calls: cached answers only"),
     pictures: bool = typer.Option(True, "--pictures/--no-pictures", help="Draw the counterfactual's GIF"),
+    judge: bool = typer.Option(True, "--judge/--no-judge", help="Ask the model (--llm) whether the edited "
+                               "cause still causes the behavior (the scripted robot reacts whatever the "
+                               "cause); --no-judge: the simulation alone decides, and the record says so"),
 ) -> None:
     """Counterfactual what-if: edit a scenario's cause chain, then ground, simulate and verify it again."""
     from regen import whatif
@@ -434,15 +437,21 @@ def whatif_cmd(
     edits += [whatif.Edit(op="remove", entity=e.strip()) for e in remove]
     edits += [whatif.Edit(op="add", text=t.strip()) for t in add]
     dest_root = out_folder(out) if out is not None else src.absolute().parent.parent / "whatif"
+    if not edits and not ask:
+        raise ConfigError("no edit: give --set ENTITY.PROPERTY=VALUE, --remove ENTITY, --add 'CAUSE' or --ask 'QUESTION'")
+    if edits:
+        whatif.prepare(src, edits)  # a bad edit is told before any model loads or any file is written
     by: str = "user"
+    client = None
+    if ask or judge:
+        dest_root.mkdir(parents=True, exist_ok=True)
+        client = llm_options(llm, str(dest_root / "llm-cache.sqlite"), replay)
     if ask:
         from regen import domains
 
         scenario = ScenarioFolder(src).scenario()
         if scenario is None:
             raise ConfigError(f"{src / ScenarioFolder.SCENARIO} cannot be read")
-        dest_root.mkdir(parents=True, exist_ok=True)
-        client = llm_options(llm, str(dest_root / "llm-cache.sqlite"), replay)
         asked = whatif.ask_edits(scenario, ask, client, domains.make(scenario.domain).database())
         console.print("the model's edits: " + "; ".join(shown(e.describe()) for e in asked))
         edits += asked
@@ -451,15 +460,26 @@ def whatif_cmd(
         raise ConfigError("no edit: give --set ENTITY.PROPERTY=VALUE, --remove ENTITY, --add 'CAUSE' or --ask 'QUESTION'")
     with console.status("grounding, simulating and verifying the counterfactual"):
         dest, record = whatif.run_whatif(src, edits, dest_root, question=ask, edits_by=by,  # type: ignore[arg-type]
-                                         pictures=pictures)
+                                         pictures=pictures, judge=client if judge else None)
     for e in record.edits:
         console.print(f"  {shown(e.describe())}")
     state = "[green]still explained[/]" if record.explained else "[red]no longer explained[/]"
     console.print(f"original: {record.original_status}; counterfactual: {record.status}: the behavior is {state}")
     console.print(f"  {shown(record.reason)}")
+    if record.judged.get("by") != "none":
+        plausible = "a plausible cause" if record.judged.get("plausible") else "no cause"
+        console.print(f"  judged by {shown(str(record.judged['by']))}: {plausible} of what follows it")
     for c in record.stages_changed:
         console.print(f"  stage {c['index']}: {shown(c['before'] or '—')} -> {shown(c['after'] or '—')}")
     console.print(f"wrote {shown(str(dest))} (whatif.json, whatif.html)")
+    run = dest.parent.parent
+    if dest.parent.name == "whatif" and (run / "run.json").is_file():  # the run's report shows the pair
+        from regen.report import write_report
+
+        try:
+            console.print(f"report: {shown(str(write_report(run)))}")
+        except (RegenError, OSError) as exc:
+            console.print(f"[yellow]report not updated:[/] {shown(str(exc))}")
 
 
 def _mount_eval() -> None:

@@ -131,6 +131,7 @@ class RunView:
     scenarios: list[ScenarioView] = field(default_factory=list)
     stray: list[str] = field(default_factory=list)  # run.json names with no usable folder
     tests: BehaviorTests | None = None  # regen test's results (RUN/tests/), None: none run
+    whatifs: list[Any] = field(default_factory=list)  # regen whatif's counterfactuals (RUN/whatif/)
 
     @property
     def summary(self) -> Summary:
@@ -218,4 +219,7 @@ def load_run(run_dir: Path, manifest: dict[str, Any] | None = None) -> RunView:
     from regen.report.tests_view import load_tests  # it reads this module's views
 
     view.tests = load_tests(run.path, view.scenarios, view.behavior.text if view.behavior else "")
+    from regen.report.whatif_view import load_whatifs
+
+    view.whatifs = load_whatifs(run.path, {s.folder: s.anchor for s in view.scenarios})
     return view

@@ -180,7 +180,10 @@ def _reworded(event: str, asset: str, edit: Edit, db: AssetDatabase) -> str:
     if old:
         out = event
         for phrase in old.values():
-            out = re.sub(re.escape(phrase), new, out, flags=re.IGNORECASE)
+            # the new words in the old words' form where there are some ('turns red' -> 'turns green')
+            head = phrase.split()[0].lower()
+            alike = next((p for p in phrases if p.split()[0].lower() == head), new)
+            out = re.sub(re.escape(phrase), alike, out, flags=re.IGNORECASE)
         return out
     return f"{event} ({new})" if new.lower() not in event.lower() else event
 
@@ -228,7 +231,12 @@ class WhatIf(Model):
     call_id: str | None = None  # the model call that wrote the edits
     original_status: str
     status: str  # the counterfactual's verdict
-    explained: bool  # the robot's behavior is still explained (the counterfactual verified)
+    #: the robot's behavior is still explained: the counterfactual verified and (when judged) its
+    #: root cause is still a plausible cause of what follows it
+    explained: bool
+    #: the event judge on the counterfactual's root cause ({'by', 'plausible', 'reason'}); by
+    #: 'none' when no model judged it (then only the simulation decides ``explained``)
+    judged: dict[str, Any] = Field(default_factory=lambda: {"by": "none", "plausible": None, "reason": ""})
     original_explained: bool
     reason: str
     stages_changed: list[dict[str, str | None]] = Field(default_factory=list)
@@ -242,21 +250,33 @@ def folder_name(original: Path, edits: list[Edit]) -> str:
     return f"{original.name}-whatif-{hashlib.sha1(key.encode()).hexdigest()[:8]}"
 
 
-def run_whatif(scenario_dir: str | Path, edits: list[Edit], out: str | Path, *, llm: LLM | None = None,
-               question: str | None = None, edits_by: Literal["user", "model"] = "user",
-               pictures: bool = True) -> tuple[Path, WhatIf]:
-    """Apply ``edits`` to the scenario in ``scenario_dir``, then ground (rules, or ``llm``),
-    simulate and verify the counterfactual into ``out``; (its folder, the record)."""
+def judge_root(llm: LLM, domain: str, events: list[str]) -> dict[str, Any]:
+    """Whether the chain's root cause still plausibly and directly causes the event after it:
+    the expansion's own event judge (and its rule against the robot's own mechanics)."""
+    from regen.expand.edges import judge_events, restates_mechanics
+
+    if len(events) < 2:
+        return {"by": "none", "plausible": None, "reason": "the chain has no cause event"}
+    root, chain = events[0], events[1:]
+    judged = judge_events(llm, domain, chain, [root])
+    mechanics = restates_mechanics(domain, root)
+    ok = root in judged.accepted and mechanics is None
+    reason = mechanics or judged.accepted.get(root) or judged.rejected.get(root, "")
+    return {"by": f"model ({llm.provider.id})", "plausible": ok, "reason": reason,
+            "call_id": judged.calls.get(root)}
+
+
+def prepare(scenario_dir: str | Path, edits: list[Edit]) -> tuple[Any, Scenario, Verdict | None, CausePath]:
+    """(source folder, its scenario, its verdict, the counterfactual's cause path); ConfigError
+    for a folder that is not a scenario's or an edit that does not apply."""
     from regen import domains
     from regen.core.graph import CausePath
     from regen.core.verdict import Verdict
-    from regen.pipeline.stages import run_path
     from regen.runfolder import ScenarioFolder, read_model
 
     src = ScenarioFolder(Path(scenario_dir).absolute())
     scenario = src.scenario()
     path = read_model(src / src.PATH, CausePath)
-    verdict = read_model(src / src.VERDICT, Verdict)
     if scenario is None or not path.ok:
         raise ConfigError(f"{src.path} is not a scenario folder with a readable scenario.json and path.json "
                           "(give one of RUN/scenarios/<name>/)")
@@ -265,17 +285,37 @@ def run_whatif(scenario_dir: str | Path, edits: list[Edit], out: str | Path, *, 
     backend = domains.make(scenario.domain)
     robot = (backend.report_hints.robot, *backend.wording.robot_names)
     new_path = apply_edits(scenario, path.value, edits, backend.database(), robot=robot)
+    return src, scenario, read_model(src / src.VERDICT, Verdict).value, new_path
+
+
+def run_whatif(scenario_dir: str | Path, edits: list[Edit], out: str | Path, *, llm: LLM | None = None,
+               judge: LLM | None = None, question: str | None = None,
+               edits_by: Literal["user", "model"] = "user", pictures: bool = True) -> tuple[Path, WhatIf]:
+    """Apply ``edits`` to the scenario in ``scenario_dir``, then ground (rules, or ``llm``),
+    simulate and verify the counterfactual into ``out``; (its folder, the record). ``judge``: a
+    model asked whether the counterfactual's root cause still causes what follows it (the
+    scripted robot reacts whatever the cause: without a judge only the simulation decides)."""
+    from regen.pipeline.stages import run_path
+    from regen.runfolder import ScenarioFolder
+
+    src, scenario, verdict, new_path = prepare(scenario_dir, edits)
     dest = Path(out).absolute() / folder_name(src.path, edits)
     seed = int((scenario.world or {}).get("seed", 0) or 0) if isinstance(scenario.world, dict) else 0
     outcome = run_path(new_path, dest, llm=llm, seed=seed, pictures=pictures)
     after = ScenarioFolder(dest).scenario()
-    before_v: Verdict | None = verdict.value
+    before_v = verdict
     shown = _shown_states(edits, src.path, dest)
+    judged = ({"by": "none", "plausible": None, "reason": "no model judged whether the edited cause still "
+               "causes the behavior; only the simulation decided"} if judge is None
+              else judge_root(judge, scenario.domain, new_path.events))
+    explained = outcome.verdict.feasible and judged["plausible"] is not False
     record = WhatIf(original=str(src.path), question=question, edits=edits, edits_by=edits_by,
                     original_status=before_v.status if before_v is not None else "unfinished",
                     original_explained=bool(before_v is not None and before_v.feasible),
-                    status=outcome.verdict.status, explained=outcome.verdict.feasible,
-                    reason=outcome.verdict.reason, stages_changed=changed_stages(scenario, after),
+                    status=outcome.verdict.status, explained=explained, judged=judged,
+                    reason=outcome.verdict.reason if judged["plausible"] is not False else
+                    f"{outcome.verdict.reason}; but the judge found '{new_path.events[0]}' no cause of "
+                    f"'{new_path.events[1]}': {judged['reason']}", stages_changed=changed_stages(scenario, after),
                     shown_states=shown)
     from regen.core.io import atomic_write_text, write_json
 
