@@ -31,7 +31,8 @@ CHROMIUM_FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic
 LOAD_TIMEOUT = 20.0  # [s] for the page and its pictures on a slow CI machine
 # chrome:// and about: are resources built into the browser (its start page loads some while the
 # report loads); they never touch the network.
-LOCAL_SCHEMES = {"file", "data", "chrome", "about"}
+# the browser's own pages (a new tab, devtools) are not requests that leave the machine
+LOCAL_SCHEMES = {"file", "data", "chrome", "chrome-untrusted", "devtools", "about"}
 
 
 def _unavailable(reason: str) -> None:
