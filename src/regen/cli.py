@@ -288,7 +288,6 @@ def generate_cmd(
 ) -> None:
     """The main job: behavior -> causal graph -> scenarios -> simulation -> verdicts -> report."""
     from regen.core.behavior import make_behavior
-    from regen.errors import ConfigError
     from regen.pipeline import generate
     from regen.progress import make_progress
     from regen.runfolder import RunSettings, out_folder
@@ -343,7 +342,6 @@ def generate_cmd(
 @friendly
 def runs_list(root: str = typer.Argument(".", help="A run folder or a folder of runs")) -> None:
     """Run folders with their behavior, status and success."""
-    from pathlib import Path
 
     from regen.errors import RunError
     from regen.runfolder import RunFolder, list_runs, read_json
@@ -375,7 +373,6 @@ def runs_list(root: str = typer.Argument(".", help="A run folder or a folder of 
 @friendly
 def runs_show(run: str = typer.Argument(..., help="A run folder")) -> None:
     """The scenarios of one run with their verdicts."""
-    from pathlib import Path
 
     from regen.core.verdict import Verdict
     from regen.errors import RunError
@@ -405,81 +402,14 @@ def runs_show(run: str = typer.Argument(..., help="A run folder")) -> None:
     console.print(table)
 
 
-@app.command("whatif")
-@friendly
-def whatif_cmd(
-    scenario_dir: str = typer.Argument(..., help="A scenario folder of a run: RUN/scenarios/<name>"),
-    set_: list[str] = typer.Option([], "--set", help="ENTITY.PROPERTY=VALUE, e.g. sedan1.brake_lights=broken "
-                                                      "(repeatable)"),
-    remove: list[str] = typer.Option([], "--remove", help="An entity of the cause chain that leaves the scene "
-                                                         "(repeatable)"),
-    add: list[str] = typer.Option([], "--add", help="A cause text that joins the chain, naming its entity, e.g. "
-                                                   "'a cyclist rides ahead' (repeatable)"),
-    ask: str | None = typer.Option(None, "--ask", help="A what-if question in words; the model answers with "
-                                                       "edits, which are shown and recorded"),
-    out: str | None = typer.Option(None, "--out", "-o", help="Folder for the counterfactual (default: "
-                                                             "RUN/whatif beside the scenario's run)"),
-    llm: str = typer.Option("local", "--llm", help=LLM_HELP),
-    replay: bool = typer.Option(False, "--replay", help="Forbid model calls: cached answers only"),
-    pictures: bool = typer.Option(True, "--pictures/--no-pictures", help="Draw the counterfactual's GIF"),
-    judge: bool = typer.Option(True, "--judge/--no-judge", help="Ask the model (--llm) whether the edited "
-                               "cause still causes the behavior (the scripted robot reacts whatever the "
-                               "cause); --no-judge: the simulation alone decides, and the record says so"),
-) -> None:
-    """Counterfactual what-if: edit a scenario's cause chain, then ground, simulate and verify it again."""
-    from regen import whatif
-    from regen.runfolder import ScenarioFolder, out_folder
+def _mount_whatif() -> None:
+    from regen.whatif.cli import whatif_command
 
-    src = Path(scenario_dir)
-    if not (src / ScenarioFolder.SCENARIO).is_file():
-        raise ConfigError(f"{src} holds no scenario.json: give a scenario folder, RUN/scenarios/<name>")
-    edits = [whatif.parse_set(s) for s in set_]
-    edits += [whatif.Edit(op="remove", entity=e.strip()) for e in remove]
-    edits += [whatif.Edit(op="add", text=t.strip()) for t in add]
-    dest_root = out_folder(out) if out is not None else src.absolute().parent.parent / "whatif"
-    if not edits and not ask:
-        raise ConfigError("no edit: give --set ENTITY.PROPERTY=VALUE, --remove ENTITY, --add 'CAUSE' or --ask 'QUESTION'")
-    if edits:
-        whatif.prepare(src, edits)  # a bad edit is told before any model loads or any file is written
-    by: str = "user"
-    client = None
-    if ask or judge:
-        dest_root.mkdir(parents=True, exist_ok=True)
-        client = llm_options(llm, str(dest_root / "llm-cache.sqlite"), replay)
-    if ask:
-        from regen import domains
+    app.command("whatif", help="Counterfactual what-if: edit a scenario's cause chain (--set, --remove, "
+                               "--add, --ask), then ground, simulate and verify it again.")(friendly(whatif_command))
 
-        scenario = ScenarioFolder(src).scenario()
-        if scenario is None:
-            raise ConfigError(f"{src / ScenarioFolder.SCENARIO} cannot be read")
-        asked = whatif.ask_edits(scenario, ask, client, domains.make(scenario.domain).database())
-        console.print("the model's edits: " + "; ".join(shown(e.describe()) for e in asked))
-        edits += asked
-        by = "model"
-    if not edits:
-        raise ConfigError("no edit: give --set ENTITY.PROPERTY=VALUE, --remove ENTITY, --add 'CAUSE' or --ask 'QUESTION'")
-    with console.status("grounding, simulating and verifying the counterfactual"):
-        dest, record = whatif.run_whatif(src, edits, dest_root, question=ask, edits_by=by,  # type: ignore[arg-type]
-                                         pictures=pictures, judge=client if judge else None)
-    for e in record.edits:
-        console.print(f"  {shown(e.describe())}")
-    state = "[green]still explained[/]" if record.explained else "[red]no longer explained[/]"
-    console.print(f"original: {record.original_status}; counterfactual: {record.status}: the behavior is {state}")
-    console.print(f"  {shown(record.reason)}")
-    if record.judged.get("by") != "none":
-        plausible = "a plausible cause" if record.judged.get("plausible") else "no cause"
-        console.print(f"  judged by {shown(str(record.judged['by']))}: {plausible} of what follows it")
-    for c in record.stages_changed:
-        console.print(f"  stage {c['index']}: {shown(c['before'] or '—')} -> {shown(c['after'] or '—')}")
-    console.print(f"wrote {shown(str(dest))} (whatif.json, whatif.html)")
-    run = dest.parent.parent
-    if dest.parent.name == "whatif" and (run / "run.json").is_file():  # the run's report shows the pair
-        from regen.report import write_report
 
-        try:
-            console.print(f"report: {shown(str(write_report(run)))}")
-        except (RegenError, OSError) as exc:
-            console.print(f"[yellow]report not updated:[/] {shown(str(exc))}")
+_mount_whatif()
 
 
 def _mount_eval() -> None:

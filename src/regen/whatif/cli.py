@@ -1,0 +1,109 @@
+"""``regen whatif SCENARIO_DIR``: counterfactual edits of a scenario's cause chain, from the
+command line (a thin layer over :func:`regen.whatif.run_whatif`). Mounted by :mod:`regen.cli`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+from rich.console import Console
+from rich.markup import escape
+
+from regen.core.text import clean
+from regen.errors import ConfigError, RegenError
+
+console = Console(highlight=False, soft_wrap=True)
+
+
+LLM_HELP = ("Model for --ask and the judge: local (offline default), local:<alias or .gguf>, "
+            "openai:<model>, anthropic:<model> (keys as for regen generate)")
+
+
+def shown(value: object) -> str:
+    """Text for the terminal: cleaned of control characters, Rich markup escaped."""
+    return escape(clean(str(value)))
+
+
+def llm_options(llm: str, cache: str, replay: bool):
+    """The model client, caching beside the counterfactuals."""
+    from regen.llm import LLM
+
+    return LLM(llm, cache=cache, replay=replay)
+
+
+def whatif_command(
+    scenario_dir: str = typer.Argument(..., help="A scenario folder of a run: RUN/scenarios/<name>"),
+    set_: list[str] = typer.Option([], "--set", help="ENTITY.PROPERTY=VALUE, e.g. sedan1.brake_lights=broken "
+                                                      "(repeatable)"),
+    remove: list[str] = typer.Option([], "--remove", help="An entity of the cause chain that leaves the scene "
+                                                         "(repeatable)"),
+    add: list[str] = typer.Option([], "--add", help="A cause text that joins the chain, naming its entity, e.g. "
+                                                   "'a cyclist rides ahead' (repeatable)"),
+    ask: str | None = typer.Option(None, "--ask", help="A what-if question in words; the model answers with "
+                                                       "edits, which are shown and recorded"),
+    out: str | None = typer.Option(None, "--out", "-o", help="Folder for the counterfactual (default: "
+                                                             "RUN/whatif beside the scenario's run)"),
+    llm: str = typer.Option("local", "--llm", help=LLM_HELP),
+    replay: bool = typer.Option(False, "--replay", help="Forbid model calls: cached answers only"),
+    pictures: bool = typer.Option(True, "--pictures/--no-pictures", help="Draw the counterfactual's GIF"),
+    judge: bool = typer.Option(True, "--judge/--no-judge", help="Ask the model (--llm) whether the edited "
+                               "cause still causes the behavior (the scripted robot reacts whatever the "
+                               "cause); --no-judge: the simulation alone decides, and the record says so"),
+) -> None:
+    """Counterfactual what-if: edit a scenario's cause chain, then ground, simulate and verify it again."""
+    from regen import whatif
+    from regen.runfolder import ScenarioFolder, out_folder
+
+    src = Path(scenario_dir)
+    if not (src / ScenarioFolder.SCENARIO).is_file():
+        raise ConfigError(f"{src} holds no scenario.json: give a scenario folder, RUN/scenarios/<name>")
+    edits = [whatif.parse_set(s) for s in set_]
+    edits += [whatif.Edit(op="remove", entity=e.strip()) for e in remove]
+    edits += [whatif.Edit(op="add", text=t.strip()) for t in add]
+    dest_root = out_folder(out) if out is not None else src.absolute().parent.parent / "whatif"
+    if not edits and not ask:
+        raise ConfigError("no edit: give --set ENTITY.PROPERTY=VALUE, --remove ENTITY, --add 'CAUSE' or --ask 'QUESTION'")
+    if edits:
+        whatif.prepare(src, edits)  # a bad edit is told before any model loads or any file is written
+    by: str = "user"
+    client = None
+    if ask or judge:
+        dest_root.mkdir(parents=True, exist_ok=True)
+        client = llm_options(llm, str(dest_root / "llm-cache.sqlite"), replay)
+    if ask:
+        from regen import domains
+
+        scenario = ScenarioFolder(src).scenario()
+        if scenario is None:
+            raise ConfigError(f"{src / ScenarioFolder.SCENARIO} cannot be read")
+        asked = whatif.ask_edits(scenario, ask, client, domains.make(scenario.domain).database())
+        console.print("the model's edits: " + "; ".join(shown(e.describe()) for e in asked))
+        edits += asked
+        by = "model"
+    if not edits:
+        raise ConfigError("no edit: give --set ENTITY.PROPERTY=VALUE, --remove ENTITY, --add 'CAUSE' or --ask 'QUESTION'")
+    with console.status("grounding, simulating and verifying the counterfactual"):
+        dest, record = whatif.run_whatif(src, edits, dest_root, question=ask, edits_by=by,  # type: ignore[arg-type]
+                                         pictures=pictures, judge=client if judge else None)
+    for e in record.edits:
+        console.print(f"  {shown(e.describe())}")
+    state = "[green]still explained[/]" if record.explained else "[red]no longer explained[/]"
+    console.print(f"original: {record.original_status}; counterfactual: {record.status}: the behavior is {state}")
+    console.print(f"  {shown(record.reason)}")
+    if record.judged.get("by") != "none":
+        plausible = "a plausible cause" if record.judged.get("plausible") else "no cause"
+        console.print(f"  judged by {shown(str(record.judged['by']))}: {plausible} of what follows it")
+    for c in record.stages_changed:
+        console.print(f"  stage {c['index']}: {shown(c['before'] or '—')} -> {shown(c['after'] or '—')}")
+    console.print(f"wrote {shown(str(dest))} (whatif.json, whatif.html)")
+    run = dest.parent.parent
+    if dest.parent.name == "whatif" and (run / "run.json").is_file():  # the run's report shows the pair
+        from regen.report import write_report
+
+        try:
+            console.print(f"report: {shown(str(write_report(run)))}")
+        except (RegenError, OSError) as exc:
+            console.print(f"[yellow]report not updated:[/] {shown(str(exc))}")
+
+
+__all__ = ["whatif_command"]
