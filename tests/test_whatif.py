@@ -175,3 +175,20 @@ def test_bad_edits_are_one_line(front_car, tmp_path, args, words):
     res = _whatif(front_car, *args, "--out", str(tmp_path / "wi"))
     assert res.exit_code == 2 and words in " ".join(res.output.split()), res.output
     assert "Traceback" not in res.output and not (tmp_path / "wi").exists()
+
+
+def test_a_manipulation_context_removed_leaves_the_task_unexplained(tmp_path):
+    from regen.core import Behavior, CausePath, PathEntity
+    from regen.manipulation.behaviors import BEHAVIORS
+
+    b = BEHAVIORS["open_door"]
+    pet = CausePath(behavior=Behavior(text=b.text, domain="manipulation", params={"reward": b.id}),
+                    events=["the pet wants to go out", b.text],
+                    entities=[PathEntity(asset="pet", event="the pet wants to go out")])
+    folder = tmp_path / "run" / "scenarios" / "01-pet"
+    assert run_path(pet, folder, pictures=False).verdict.feasible
+    res = _whatif(folder, "--remove", "pet1", "--no-pictures")
+    assert res.exit_code == 0, res.output
+    _, record = _record(res)
+    assert record["original_explained"] and not record["explained"] and record["status"] == "unfaithful"
+    assert any(c["before"] and "pet1" in c["before"] for c in record["stages_changed"])
