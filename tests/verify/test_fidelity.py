@@ -77,6 +77,29 @@ def test_no_asset_named_is_undecided_and_the_models_answer_counts() -> None:
     assert combine(faithful, said_no) == faithful  # rules decide where they can
 
 
+def test_a_state_no_entity_can_have_is_unfaithful_even_when_no_asset_is_named() -> None:
+    # the paper's "a distracted driver failing to move despite a green light", shown by the offline
+    # model as a green light and pedestrians walking along: no driver anywhere
+    cause = "a distracted driver fails to move despite a green light"
+    nobody = chain("slow_down", cause, ("traffic_light", {"light_state": ["green"]}),
+                   ("pedestrian_group", {"behavior": ["walk_along"], "start_location": ["roadside_ahead"]}))
+    f = _fidelity(nobody)
+    assert f.status == "unfaithful" and "'distracted' (driver_state = distracted)" in f.reason
+    assert with_fidelity(VERIFIED, f).status == "unfaithful"
+    # a vehicle that has a driver can show it: the rules then leave it to the model, as before
+    car = chain("slow_down", cause, ("sedan", {"behavior": ["drive_forward"], "driver_state": ["distracted"],
+                                             "start_location": ["ahead_same_lane"], "target_speed": ["slow"]}))
+    f = _fidelity(car)  # ... but the green light is named too, and nothing there is a light
+    assert f.status == "unfaithful" and "'green light' (light_state = green)" in f.reason
+    assert "driver_state" not in f.reason.split("a state no entity")[0]
+    car.entities.append(nobody.entities[0].model_copy(update={"event": cause}))
+    assert _fidelity(car).status in ("undecided", "faithful")
+    # a named asset decides as before: a swerving cyclist has no driver state and is not flagged by it
+    cyclist = chain("slow_down", "a cyclist swerves into the lane",
+                    ("bicycle", {"behavior": ["change_lane"], "start_location": ["ahead_adjacent_lane"]}))
+    assert "driver_state" not in _fidelity(cyclist).reason
+
+
 def test_a_scenario_with_only_the_task_object_is_unfaithful() -> None:
     from regen.core.scenario import Entity
 

@@ -345,6 +345,21 @@ class AssetDatabase(Model):
             out.setdefault(st, ph)
         return out
 
+    def named_property_states(self, event: str) -> list[tuple[str, str, str]]:
+        """(property, state, phrase) for every state ``event``'s words name, whoever could hold
+        it (motions excluded: :meth:`named_motions`), longest phrase first where they overlap."""
+        text = plain(event)
+        found = [(m.start(), m.end(), prop, st, ph) for prop, spec in self.properties.items()
+                 if prop != "behavior" for st, phrases in spec.named_by.items()
+                 for ph in phrases for m in re.finditer(rf"\b{re.escape(plain(ph))}\b", text)]
+        out: list[tuple[str, str, str]] = []
+        for a0, a1, prop, st, ph in sorted(found, key=lambda f: f[0] - f[1]):
+            if any(b0 <= a0 and a1 <= b1 and (b0, b1) != (a0, a1) for b0, b1, *_ in found):
+                continue
+            if (prop, st, ph) not in out:
+                out.append((prop, st, ph))
+        return out
+
     def named_state(self, asset: str, prop: str, event: str) -> tuple[str, str] | None:
         """The one state of ``prop`` that ``event``'s words name for ``asset`` as
         ``(state, phrase)`` (:meth:`named_states`), or None: none, or several (ambiguous)."""

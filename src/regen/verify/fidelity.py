@@ -11,7 +11,10 @@ behaviors and states are compared with what each cause event's words name:
    an ambulance let pass has its siren on) is the state that entity has;
 3. a motion the text names ('wrong-way driver': wrong_way) is one some entity can make;
 4. some entity other than the robot and its task's own objects shows the cause (a door alone
-   does not show a pet let in).
+   does not show a pet let in);
+5. where the text names no asset, a state it names ('distracted') is one that some entity of
+   the scenario can have (a driver's state needs a vehicle; a green light and pedestrians do not
+   show a distracted driver).
 
 A mismatch makes the verdict ``unfaithful`` (not feasible), with what the text names and what
 the scenario shows. Where the text names no asset, rules cannot decide: a yes/no model question
@@ -113,6 +116,16 @@ def check_rules(scenario: Scenario, db: AssetDatabase, *, robot: str | Sequence[
         return Fidelity(status="unfaithful", named=named, shown=shown,
                         reason="; ".join(missing + wrong) + f"; the scenario shows {', '.join(shown)}")
     if not any(not n.count(".") for n in named):  # no asset named: rules cannot say who plays it
+        # ... unless the words name a state that nothing in the scenario can be in ('a distracted
+        # driver' where no entity has a driver): then no entity plays it, whoever it was meant to be
+        holders = {p for e in scenario.entities if e.asset in db.assets for p in db.parameters_of(e.asset)}
+        absent = [(prop, st, ph) for event in causes for prop, st, ph in db.named_property_states(event)
+                  if prop not in holders and not _explained_by_a_behavior(ph, cast)]
+        if absent:
+            said = ", ".join(f"'{ph}' ({prop} = {st})" for prop, st, ph in absent)
+            return Fidelity(status="unfaithful", named=named + [f"{p} = {st}" for p, st, _ in absent], shown=shown,
+                            reason=f"the cause names {said}, a state no entity of the scenario can have; "
+                                   f"the scenario shows {', '.join(shown)}")
         return Fidelity(status="undecided", named=named, shown=shown,
                         reason="the cause names no asset of the database; rules cannot decide")
     return Fidelity(status="faithful", named=named, shown=shown,
