@@ -31,6 +31,7 @@ from regen.assets.names import (
     PARAPHRASE_THRESHOLD,
     key_vectors,
     main_phrases,
+    phrases_in,
     plain,
     similarity,
     without_robot,
@@ -331,34 +332,19 @@ class AssetDatabase(Model):
         over to help a broken-down car')."""
         if prop not in self.parameters_of(asset):
             return {}
-        text = plain(event)  # 'broken-down' is 'broken down'
         # a motion the asset cannot make is another actor's ('a car waits for a child crossing
-        # the road': crossing is the child's)
+        # the road': crossing is the child's); 'broken-down' is 'broken down' (plain)
         able = set(self.assets[asset].behaviors) if prop == "behavior" else None
-        found = [(m.start(), m.end(), st, ph) for st, phrases in self.properties[prop].named_by.items()
-                 if able is None or st in able
-                 for ph in phrases for m in re.finditer(rf"\b{re.escape(plain(ph))}\b", text)]
+        states = {st: phs for st, phs in self.properties[prop].named_by.items() if able is None or st in able}
         out: dict[str, str] = {}
-        for a0, a1, st, ph in sorted(found, key=lambda f: f[0] - f[1]):  # longest first
-            if any(b0 <= a0 and a1 <= b1 and (b0, b1) != (a0, a1) for b0, b1, _, _ in found):
-                continue
+        for _, st, ph in phrases_in(event, {prop: states}):  # longest first
             out.setdefault(st, ph)
         return out
 
     def named_property_states(self, event: str) -> list[tuple[str, str, str]]:
         """(property, state, phrase) for every state ``event``'s words name, whoever could hold
-        it (motions excluded: :meth:`named_motions`), longest phrase first where they overlap."""
-        text = plain(event)
-        found = [(m.start(), m.end(), prop, st, ph) for prop, spec in self.properties.items()
-                 if prop != "behavior" for st, phrases in spec.named_by.items()
-                 for ph in phrases for m in re.finditer(rf"\b{re.escape(plain(ph))}\b", text)]
-        out: list[tuple[str, str, str]] = []
-        for a0, a1, prop, st, ph in sorted(found, key=lambda f: f[0] - f[1]):
-            if any(b0 <= a0 and a1 <= b1 and (b0, b1) != (a0, a1) for b0, b1, *_ in found):
-                continue
-            if (prop, st, ph) not in out:
-                out.append((prop, st, ph))
-        return out
+        it (motions excluded: :meth:`named_motions`); :func:`~regen.assets.names.phrases_in`."""
+        return phrases_in(event, {p: s.named_by for p, s in self.properties.items() if p != "behavior"})
 
     def named_state(self, asset: str, prop: str, event: str) -> tuple[str, str] | None:
         """The one state of ``prop`` that ``event``'s words name for ``asset`` as

@@ -58,6 +58,22 @@ def plain(text: str) -> str:
     return " ".join(text.lower().replace("-", " ").split())
 
 
+def phrases_in(event: str, named_by: dict[str, dict[str, list[str]]]) -> list[tuple[str, str, str]]:
+    """(key, state, phrase) for every phrase of ``named_by`` (key -> state -> phrases) in
+    ``event``: whole words, any case, the longest phrase where they overlap."""
+    text = plain(event)
+    found = [(m.start(), m.end(), key, st, ph) for key, states in named_by.items()
+             for st, phrases in states.items()
+             for ph in phrases for m in re.finditer(rf"\b{re.escape(plain(ph))}\b", text)]
+    out: list[tuple[str, str, str]] = []
+    for a0, a1, key, st, ph in sorted(found, key=lambda f: f[0] - f[1]):
+        if any(b0 <= a0 and a1 <= b1 and (b0, b1) != (a0, a1) for b0, b1, *_ in found):
+            continue
+        if (key, st, ph) not in out:
+            out.append((key, st, ph))
+    return out
+
+
 def main_phrases(description: str) -> list[str]:
     """The noun phrases a description names its asset by: the words before the first
     preposition or participle ('car parked at the roadside' -> 'car'), and after a colon
