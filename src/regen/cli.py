@@ -13,7 +13,6 @@ import logging
 import os
 import re
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any, TypeVar
 
 import typer
@@ -22,7 +21,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from regen import domains
-from regen.errors import ConfigError, RegenError
+from regen.errors import RegenError
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -288,6 +287,7 @@ def generate_cmd(
 ) -> None:
     """The main job: behavior -> causal graph -> scenarios -> simulation -> verdicts -> report."""
     from regen.core.behavior import make_behavior
+    from regen.errors import ConfigError
     from regen.pipeline import generate
     from regen.progress import make_progress
     from regen.runfolder import RunSettings, out_folder
@@ -342,6 +342,7 @@ def generate_cmd(
 @friendly
 def runs_list(root: str = typer.Argument(".", help="A run folder or a folder of runs")) -> None:
     """Run folders with their behavior, status and success."""
+    from pathlib import Path
 
     from regen.errors import RunError
     from regen.runfolder import RunFolder, list_runs, read_json
@@ -373,6 +374,7 @@ def runs_list(root: str = typer.Argument(".", help="A run folder or a folder of 
 @friendly
 def runs_show(run: str = typer.Argument(..., help="A run folder")) -> None:
     """The scenarios of one run with their verdicts."""
+    from pathlib import Path
 
     from regen.core.verdict import Verdict
     from regen.errors import RunError

@@ -16,17 +16,17 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
-import json
 import os
 import re
 import shutil
 from pathlib import Path
 from typing import Any
 
-from regen.core.io import atomic_write_text, write_json
+from regen.core.io import make_folder, try_lock, write_json
 from regen.errors import ConfigError
 from regen.harness.cases import CaseResult
 from regen.harness.pictures import FAILURE_GIF, TRACE_FILE, case_folder
+from regen.runfolder import read_json
 
 SETTINGS = "settings.json"
 CASES = "cases"
@@ -82,49 +82,30 @@ class ResultsFolder:
     def check(self) -> None:
         """ConfigError when the folder cannot be one (checked before anything runs)."""
         p = self.path
-        if p.exists() and not p.is_dir():
-            raise ConfigError(f"--out {p} is a file; give a folder for tests.json and junit.xml")
-        try:
-            p.mkdir(parents=True, exist_ok=True)
-        except (FileExistsError, NotADirectoryError):
-            raise ConfigError(f"--out {p} lies under a file; give a folder path") from None
-        except OSError as exc:
-            raise ConfigError(f"cannot create {p}: {exc.strerror}; choose another --out") from None
-        if not os.access(p, os.W_OK | os.X_OK):
-            raise ConfigError(f"{p} is not writable; choose another --out")
+        problem = make_folder(p)
+        if problem is not None:
+            raise ConfigError({"file": f"--out {p} is a file; give a folder for tests.json and junit.xml",
+                               "under_file": f"--out {p} lies under a file; give a folder path",
+                               "not_writable": f"{p} is not writable; choose another --out"}
+                              .get(problem, f"cannot create {p}: {problem}; choose another --out"))
 
     def hold_run(self, run: Path) -> None:
         """A shared lock on the run folder: ConfigError while regen generate writes it."""
-        import fcntl
-
-        lock = Path(run) / RUN_LOCK
         try:
-            fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+            fd, other = try_lock(Path(run) / RUN_LOCK, shared=True)
         except OSError:
             return  # a read-only run folder: nothing can be writing it
-        try:
-            fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
-        except OSError:
-            other = os.read(fd, 64).decode("ascii", "replace").strip() or "?"
-            os.close(fd)
+        if fd is None:
             raise ConfigError(f"regen generate (pid {other}) is still writing {run}; wait for it to "
-                              "finish, then run regen test") from None
+                              "finish, then run regen test")
         self._run_fd = fd
 
     def lock(self) -> None:
         """Hold DEST for this process; ConfigError naming the other one."""
-        import fcntl
-
-        fd = os.open(self.path / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            other = os.read(fd, 64).decode("ascii", "replace").strip() or "?"
-            os.close(fd)
+        fd, other = try_lock(self.path / LOCK)
+        if fd is None:
             raise ConfigError(f"another regen test (pid {other}) is writing {self.path}; wait for it "
-                              "or give another --out") from None
-        os.ftruncate(fd, 0)
-        os.write(fd, str(os.getpid()).encode())
+                              "or give another --out")
         self._fd = fd
 
     def close(self) -> None:
@@ -138,7 +119,7 @@ class ResultsFolder:
     def open(self, settings: dict[str, Any]) -> str | None:
         """Lock DEST and load the cases a rerun keeps; a message when it starts over."""
         self.lock()
-        stored = self._read(self.path / SETTINGS)
+        stored = read_json(self.path / SETTINGS).value
         note = None
         has_cases = (self.path / CASES).is_dir() and any((self.path / CASES).iterdir())
         if stored != settings and (has_cases or stored is not None):
@@ -150,7 +131,7 @@ class ResultsFolder:
             self._clear()
         write_json(self.path / SETTINGS, settings)
         for f in sorted((self.path / CASES).glob("*.json")) if (self.path / CASES).is_dir() else []:
-            raw = self._read(f)
+            raw = read_json(f).value
             try:
                 case = CaseResult.model_validate(raw["case"])
                 digest = str(raw["digest"])
@@ -158,13 +139,6 @@ class ResultsFolder:
                 continue  # a damaged case file: the case runs again
             self.finished[case_key(case)] = (digest, case)
         return note
-
-    @staticmethod
-    def _read(path: Path) -> Any:
-        try:
-            return json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, ValueError):
-            return None
 
     def _clear(self) -> None:
         """Remove this folder's own files of an earlier run (case files, results, failure
@@ -211,12 +185,9 @@ class ResultsFolder:
 
     def write(self, report: Any) -> dict[str, Path]:
         """tests.json and junit.xml of the cases so far."""
-        from regen.harness.junit import junit_xml
+        from regen.harness.junit import write_report
 
-        data = report.model_dump(mode="json")
-        data["summary"] = report.summary()
-        return {"tests": write_json(self.path / TESTS_JSON, data),
-                "junit": atomic_write_text(self.path / JUNIT, junit_xml(report))}
+        return write_report(report, self.path)
 
 
 __all__ = ["CASES", "JUNIT", "POLICY_LOG", "SETTINGS", "TESTS_JSON", "ResultsFolder", "case_key",

@@ -47,16 +47,14 @@ def _words(edit: Any) -> str:
 
 
 def _gif(run: Path, folder: Path) -> str | None:
+    """href of a scenario folder's animation (its files.json role) from report.html."""
+    from regen.contract import ANIMATION
+    from regen.runfolder import ScenarioFolder
+
+    name = ScenarioFolder(folder).files().get(ANIMATION)
     try:
-        files = json.loads((folder / "files.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
-    name = files.get("animation") if isinstance(files, dict) else None
-    if not isinstance(name, str) or "/" in name or not (folder / name).is_file():
-        return None
-    try:
-        return href(*(folder / name).resolve().relative_to(run.resolve()).parts)
-    except ValueError:
+        return href(*(folder / name).resolve().relative_to(Path(run).resolve()).parts) if name else None
+    except ValueError:  # outside the run folder
         return None
 
 

@@ -22,7 +22,7 @@ from typing import Any, ClassVar
 
 from regen.core.behavior import Behavior
 from regen.core.graph import CausePath, ScenarioGraph
-from regen.core.io import atomic_write_text, write_json
+from regen.core.io import atomic_write_text, make_folder, try_lock, write_json
 from regen.core.scenario import Scenario
 from regen.core.trace import Trace
 from regen.core.verdict import Verdict
@@ -239,16 +239,12 @@ class RunFolder:
 
     def _check_writable(self) -> None:
         p = self.path
-        if p.exists() and not p.is_dir():
-            raise RunError(f"--out {p} is a file; give a folder (new or an earlier run's)")
-        try:
-            p.mkdir(parents=True, exist_ok=True)
-        except (FileExistsError, NotADirectoryError):
-            raise RunError(f"--out {p} lies under a file; give a folder path") from None
-        except OSError as exc:
-            raise RunError(f"cannot create the run folder {p}: {exc.strerror}; choose another --out") from None
-        if not os.access(p, os.W_OK | os.X_OK):
-            raise RunError(f"the run folder {p} is not writable; choose another --out")
+        problem = make_folder(p)
+        if problem is not None:
+            raise RunError({"file": f"--out {p} is a file; give a folder (new or an earlier run's)",
+                            "under_file": f"--out {p} lies under a file; give a folder path",
+                            "not_writable": f"the run folder {p} is not writable; choose another --out"}
+                           .get(problem, f"cannot create the run folder {p}: {problem}; choose another --out"))
 
     def _read_or_rebuild(self, behavior: Behavior, settings: RunSettings,
                          domain_settings: dict[str, str | None]) -> tuple[RunManifest, str]:
@@ -267,18 +263,10 @@ class RunFolder:
 
     def lock(self) -> None:
         """Hold the folder for this process; RunError naming the other process if it is taken."""
-        import fcntl
-
-        fd = os.open(self / self.LOCK, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            other = os.read(fd, 64).decode("ascii", "replace").strip() or "?"
-            os.close(fd)
+        fd, other = try_lock(self / self.LOCK)
+        if fd is None:
             raise RunError(f"another regen process (pid {other}) is working on {self.path}; wait "
-                           "for it to finish or choose another --out") from None
-        os.ftruncate(fd, 0)
-        os.write(fd, str(os.getpid()).encode())
+                           "for it to finish or choose another --out")
         self._lock_fd = fd
 
     def unlock(self) -> None:

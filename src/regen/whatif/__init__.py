@@ -300,18 +300,17 @@ def run_whatif(scenario_dir: str | Path, edits: list[Edit], out: str | Path, *, 
 
     src, scenario, verdict, new_path = prepare(scenario_dir, edits)
     dest = Path(out).absolute() / folder_name(src.path, edits)
-    seed = int((scenario.world or {}).get("seed", 0) or 0) if isinstance(scenario.world, dict) else 0
+    seed = int(scenario.world.get("seed", 0) or 0)
     outcome = run_path(new_path, dest, llm=llm, seed=seed, pictures=pictures)
     after = ScenarioFolder(dest).scenario()
-    before_v = verdict
     shown = _shown_states(edits, src.path, dest)
     judged = ({"by": "none", "plausible": None, "reason": "no model judged whether the edited cause still "
                "causes the behavior; only the simulation decided"} if judge is None
               else judge_root(judge, scenario.domain, new_path.events))
     explained = outcome.verdict.feasible and judged["plausible"] is not False
     record = WhatIf(original=str(src.path), question=question, edits=edits, edits_by=edits_by,
-                    original_status=before_v.status if before_v is not None else "unfinished",
-                    original_explained=bool(before_v is not None and before_v.feasible),
+                    original_status=verdict.status if verdict is not None else "unfinished",
+                    original_explained=bool(verdict is not None and verdict.feasible),
                     status=outcome.verdict.status, explained=explained, judged=judged,
                     reason=outcome.verdict.reason if judged["plausible"] is not False else
                     f"{outcome.verdict.reason}; but the judge found '{new_path.events[0]}' no cause of "
@@ -351,22 +350,13 @@ def _shown_states(edits: list[Edit], original: Path, dest: Path) -> list[dict[st
     return out
 
 
-def _files(folder: Path) -> dict[str, str]:
-    raw = folder / "files.json"
-    try:
-        data = json.loads(raw.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return {}
-    return {k: str(v) for k, v in data.items() if isinstance(v, str)} if isinstance(data, dict) else {}
-
-
 def _picture(folder: Path, dest: Path) -> str | None:
-    files = _files(folder)
-    for key in ("animation", "gif", "bird_eye"):
-        if key in files and (folder / files[key]).is_file():
-            return os.path.relpath(folder / files[key], dest)
-    gifs = sorted(folder.glob("*.gif"))
-    return os.path.relpath(gifs[0], dest) if gifs else None
+    """The folder's animation (its files.json role), relative to ``dest``."""
+    from regen.contract import ANIMATION
+    from regen.runfolder import ScenarioFolder
+
+    name = ScenarioFolder(folder).files().get(ANIMATION)
+    return os.path.relpath(folder / name, dest) if name else None
 
 
 def page(record: WhatIf, original: Path, dest: Path, before: Scenario, after: Scenario | None) -> str:
