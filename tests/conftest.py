@@ -18,6 +18,17 @@ def _isolated_cache(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytes
     monkeypatch.setenv("REGEN_CACHE_DIR", str(tmp_path_factory.mktemp("regen-cache")))
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _nothing_written_in_the_checkout():
+    # A command under test that falls back to the working directory would litter the checkout
+    # (it happened once: a results folder was committed). Fail the run if the top level changes.
+    root = Path(__file__).resolve().parents[1]
+    before = {p.name for p in root.iterdir()}
+    yield
+    added = sorted({p.name for p in root.iterdir()} - before)
+    assert not added, f"tests wrote into the checkout: {added}"
+
+
 @pytest.fixture
 def shared_cache() -> Path:
     """Use the user's real cache dir (model files, maps) instead of a fresh one."""
