@@ -183,6 +183,9 @@ CANDIDATE_HELP = ("A cause of the behavior for the model to judge with its own (
                   "rejected one stays in the graph with the judge's reason")
 CAUSE_HELP = ("A cause of the behavior to accept whatever the judge says (repeatable); the judge's "
               "opinion is recorded, then it is expanded to entities and properties like any other")
+TRAJECTORY_HELP = ("Driving: a recorded ego trajectory (CSV with a header t,x,y and optional heading,speed; "
+                   "metres in the ego's start frame, x forward, y left, or map coordinates with --map) as the "
+                   "behavior; the ego replays it exactly in every scenario")
 LLM_TIMEOUT_HELP = ("Seconds to wait for one request to a remote model before retrying it (4 tries "
                     "in all); default: REGEN_LLM_TIMEOUT, else 120")
 
@@ -263,7 +266,8 @@ app.add_typer(runs_app, name="runs")
 @app.command("generate")
 @friendly
 def generate_cmd(
-    behavior: str = typer.Argument(..., help="The robot behavior, e.g. 'the ego-vehicle stops abruptly'"),
+    behavior: str = typer.Argument(None, help="The robot behavior, e.g. 'the ego-vehicle stops abruptly' "
+                                   "(with --ego-trajectory: default, the behavior detected in it)"),
     domain: str = typer.Option(..., "--domain", "-d", help=DOMAIN_HELP),
     out: str = typer.Option(..., "--out", "-o", help="Run folder (rerun the same command to resume)"),
     llm: str = typer.Option("local", "--llm", help=LLM_HELP),
@@ -284,6 +288,9 @@ def generate_cmd(
     llm_timeout: float = typer.Option(None, "--llm-timeout", min=0.1, help=LLM_TIMEOUT_HELP),
     fresh: bool = typer.Option(False, "--fresh", help="Discard an earlier run in --out instead of "
                                "resuming it (its model cache is kept)"),
+    trajectory: str = typer.Option(None, "--ego-trajectory", help=TRAJECTORY_HELP),
+    map_name: str = typer.Option(None, "--map", help="With --ego-trajectory: the file is in this generated "
+                                 "map's coordinates (straight, four_way, t_junction)"),
 ) -> None:
     """The main job: behavior -> causal graph -> scenarios -> simulation -> verdicts -> report."""
     from regen.core.behavior import make_behavior
@@ -295,11 +302,26 @@ def generate_cmd(
     out_dir = out_folder(out)
     if log not in ("rich", "quiet", "jsonl"):
         raise ConfigError(f"--log must be rich, quiet or jsonl, not {log!r}")
-    extra = {}
+    extra: dict[str, Any] = {}
     if template:
         extra["ego_template"] = template
     if reward:
         extra["reward"] = reward
+    if trajectory is not None:
+        from regen import domains
+
+        if template:
+            raise ConfigError("--ego and --ego-trajectory both say what the ego does; give one")
+        behavior, params, lines = domains.make(domain).recorded_behavior(trajectory, map_name=map_name,
+                                                                        text=behavior)
+        extra.update(params)
+        for line in lines:
+            err_console.print(escape(line))
+    elif map_name is not None:
+        raise ConfigError("--map says which map an --ego-trajectory file's coordinates are in; give the file too")
+    elif behavior is None:
+        raise ConfigError("give the behavior as text (e.g. 'the ego-vehicle stops abruptly') or a recorded "
+                          "trajectory with --ego-trajectory FILE")
     b = make_behavior(behavior, domain, **extra)
     settings = RunSettings(llm=llm, depth=depth, max_nodes=max_nodes, max_scenarios=scenarios,
                            causes=causes, prior=prior, candidates=candidate or [],

@@ -14,7 +14,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 from regen.core.behavior import BehaviorParams
 
@@ -159,6 +159,14 @@ class DomainBackend(ABC):
     def settings_key(self, behavior: Behavior) -> dict[str, str | None]:
         """Behavior fields that change results in this domain (recorded and compared on resume)."""
         return {}
+
+    def recorded_behavior(self, path: str, *, map_name: str | None = None, text: str | None = None
+                          ) -> tuple[str, dict[str, Any], list[str]]:
+        """A behavior from a recorded trajectory file: (its text: ``text`` or the detected one,
+        its parameters, what was detected in words). Default: this domain takes none."""
+        from regen.errors import ConfigError
+
+        raise ConfigError(f"the {self.name} domain takes no recorded trajectory; give the behavior as text")
 
     @abstractmethod
     def ground(self, path: CausePath, llm: LLM | None, *, seed: int = 0) -> Scenario:

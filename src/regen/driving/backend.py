@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from regen.contract import DomainBackend, ReportHints, SimulationOutput, Wording
 from regen.core.behavior import Behavior
@@ -20,7 +20,8 @@ from regen.core.trace import Trace
 from regen.core.verdict import Verdict
 from regen.driving.assets import RESOURCE
 from regen.driving.grounding.rules import ground_rule_based
-from regen.driving.world.egos import EGO_TEMPLATES, template_for
+from regen.driving.world.egos import EGO_TEMPLATES, match_template
+from regen.driving.world.replay import ego_template
 from regen.driving.world.setting import DrivingParams
 from regen.errors import ConfigError, GroundingError
 
@@ -28,6 +29,14 @@ if TYPE_CHECKING:
     from regen.llm.client import LLM
 
 log = logging.getLogger(__name__)
+
+
+def _matched(text: str) -> str | None:
+    """The ego template a behavior text names, or None."""
+    try:
+        return match_template(text)
+    except ConfigError:
+        return None
 
 
 class DrivingBackend(DomainBackend):
@@ -96,13 +105,35 @@ class DrivingBackend(DomainBackend):
         if behavior.params.get("reward"):
             raise ConfigError("--reward is for manipulation behaviors; driving behaviors take --ego "
                               f"(one of: {', '.join(EGO_TEMPLATES)})")
-        template_for(behavior.text, self.params(behavior).ego_template)
+        ego_template(behavior.text, self.params(behavior))
+
+    def recorded_behavior(self, path: str, *, map_name: str | None = None, text: str | None = None
+                          ) -> tuple[str, dict[str, Any], list[str]]:
+        """The behavior a recorded ego trajectory shows; the ego replays it in every scenario
+        (:mod:`regen.driving.world.replay`)."""
+        from regen.driving.world.replay import recording
+
+        rec, det = recording(path, map_name=map_name)
+        lines = [f"detected: {det.text} (its event at {rec.event_time:.1f} s; {'; '.join(det.evidence)})",
+                 f"placed: {rec.placement}"]
+        if text and det.template != _matched(text):
+            lines.append(f"note: the text given names another behavior than the one detected; the ego "
+                         f"replays the recording and its states are those of '{det.text}'")
+        params = {"ego_template": det.template, "recorded": rec.model_dump(mode="json")}
+        return text or det.text, params, lines
 
     def params(self, behavior: Behavior) -> DrivingParams:
         return DrivingParams.of(behavior)
 
     def settings_key(self, behavior: Behavior) -> dict[str, str | None]:
-        return {"ego_template": template_for(behavior.text, self.params(behavior).ego_template).id}
+        params = self.params(behavior)
+        key = {"ego_template": ego_template(behavior.text, params).id}
+        if params.recorded is not None:  # another recording is another behavior
+            import hashlib
+            import json
+
+            key["recorded"] = hashlib.sha256(json.dumps(params.recorded.samples).encode()).hexdigest()[:16]
+        return key
 
     def property_choices(self, asset: str, behavior: Behavior | None = None
                          ) -> tuple[str | None, dict[str | None, dict[str, list[str]]]] | None:
@@ -123,7 +154,7 @@ class DrivingBackend(DomainBackend):
         # properties a primitive implies (siren on): that value with it, any value without it
         implied = {p: db.property_candidates(asset, p) or [] for spec in specs.values() for p in spec.implies
                    if p in db.parameters_of(asset)}
-        template = (template_for(behavior.text, self.params(behavior).ego_template)
+        template = (ego_template(behavior.text, self.params(behavior))
                     if behavior is not None and behavior.domain == self.name else None)
         for b, spec in specs.items():
             allowed: dict[str, list[str]] = {}

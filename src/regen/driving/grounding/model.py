@@ -58,8 +58,9 @@ from regen.driving.grounding.rules import (
 )
 from regen.driving.primitives import get
 from regen.driving.world.actors import RoleChoice
-from regen.driving.world.egos import EgoTemplate, template_for
+from regen.driving.world.egos import EgoTemplate
 from regen.driving.world.locations import LOCATIONS, location_from_text
+from regen.driving.world.replay import ego_template
 from regen.driving.world.setting import DrivingParams, DrivingWorld
 from regen.errors import ConfigError, GroundingError, MalformedAnswerError
 from regen.templates import render
@@ -283,7 +284,7 @@ def ground_with_model(path: CausePath, llm: LLM, *, seed: int = 0,
     """
     db = db or driving_database()
     try:
-        template = template_for(path.behavior.text, DrivingParams.of(path.behavior).ego_template)
+        template = ego_template(path.behavior.text, DrivingParams.of(path.behavior))
     except ConfigError as exc:
         raise GroundingError(str(exc)) from None
     defaults = path_roles(path, db)

@@ -26,11 +26,12 @@ from regen.driving.grounding.placement import solve
 from regen.driving.primitives import find, for_actor, get, is_state_only
 from regen.driving.primitives.base import SPEED_CLASSES, Placed
 from regen.driving.world.actors import PARKED_ASSETS, PEDESTRIAN_ASSETS, ActorSpec, RoleChoice
-from regen.driving.world.egos import EGO_SIZE, EgoTemplate, on_junction_map, template_for
+from regen.driving.world.egos import EGO_SIZE, EgoTemplate, on_junction_map
 from regen.driving.world.locations import LOCATIONS, Location, location_from_text
 from regen.driving.world.maps import geometry
 from regen.driving.world.plan import ActorPlan
 from regen.driving.world.properties import state_schedules
+from regen.driving.world.replay import ego_template
 from regen.driving.world.setting import DrivingParams, DrivingWorld
 from regen.errors import ConfigError, GroundingError, UngroundableError
 
@@ -76,7 +77,7 @@ def _one(values: list[str], what: str, entity: str) -> str | None:
 
 def _template(path: CausePath) -> EgoTemplate:
     try:
-        return template_for(path.behavior.text, DrivingParams.of(path.behavior).ego_template)
+        return ego_template(path.behavior.text, DrivingParams.of(path.behavior))
     except ConfigError as exc:
         raise GroundingError(str(exc)) from None
 
@@ -420,7 +421,10 @@ def roles_of(scenario: Scenario) -> list[RoleChoice]:
 
 def template_of(scenario: Scenario) -> EgoTemplate:
     w = DrivingWorld.of(scenario)
-    t = template_for(scenario.behavior.text, w.ego_template)
+    params = DrivingParams.of(scenario.behavior)
+    if params.recorded is not None:  # the recording's own map and route
+        return ego_template(scenario.behavior.text, params)
+    t = ego_template(scenario.behavior.text, params.model_copy(update={"ego_template": w.ego_template}))
     m = w.map or t.map
     return on_junction_map(t, m) if m != t.map else t
 
@@ -434,7 +438,8 @@ def plans_for(scenario: Scenario, db: AssetDatabase | None = None) -> tuple[EgoT
     ego = ActorPlan(name="ego", asset="ego", kind="ego", cls="Car", x=ex, y=ey,
                     heading=math.atan2(ny - ey, nx - ex), length=EGO_SIZE[0], width=EGO_SIZE[1],
                     height=EGO_SIZE[2], speed0=t.speed0, route=list(t.route),
-                    schedule=list(t.schedule), comment=t.description, scenic_behavior="FollowRoute")
+                    schedule=list(t.schedule), comment=t.description,
+                    scenic_behavior="ReplayPath" if t.replay else "FollowRoute", replay=list(t.replay))
     plans = [ego]
     for r in roles_of(scenario):
         params = dict(scenario.parameters.get(r.name, {}))

@@ -22,7 +22,7 @@ from regen.templates import environment
 
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,63}$")
 _SCENIC_CLASSES = {"Car", "Pedestrian", "Object"}
-_SCENIC_BEHAVIORS = {"", "FollowRoute", "WalkRoute"}  # those program.scenic.j2 defines
+_SCENIC_BEHAVIORS = {"", "FollowRoute", "WalkRoute", "ReplayPath"}  # those program.scenic.j2 defines
 
 
 def scenic_identifier(name: str) -> str:
@@ -56,6 +56,12 @@ def _points(route: list[tuple[float, float]]) -> str:
 
 def _schedule(schedule: list[tuple[float, float, float]]) -> str:
     return "[" + ", ".join(f"({_num(t)}, {_num(s)}, {_num(b)})" for t, s, b in schedule) + "]"
+
+
+def _poses(replay: list[tuple[float, float, float, float]]) -> str:
+    """Replayed poses in Scenic's terms: (x, y, heading from +y [rad], speed)."""
+    return "[" + ", ".join(f"({_num(x)}, {_num(y)}, {_num(h - math.pi / 2)}, {_num(v)})"
+                           for x, y, h, v in replay) + "]"
 
 
 def _trigger(trigger: Trigger | None) -> str:
@@ -123,6 +129,7 @@ def write_program(plans: list[ActorPlan], *, map_path: str, dt: float, max_steps
             "schedule": _schedule(p.schedule) if behavior else "",
             "trigger": _trigger(p.trigger) if behavior else "",
             "lane_change": _lane_change(p.lane_change),
+            "poses": _poses(p.replay) if behavior == "ReplayPath" else "",
         })
     return _template().render(
         title=" ".join(re.sub(r"[^A-Za-z0-9 _.,:;()-]", " ", title).split())[:200],

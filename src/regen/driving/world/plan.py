@@ -81,7 +81,9 @@ class ActorPlan:
     # 'WalkRoute' (pedestrians), '' (none)
     scenic_behavior: str = ""
     comment: str = ""
+    # 'ReplayPath': the pose (x, y, heading [rad from +x], speed) at every step, set exactly
+    replay: list[tuple[float, float, float, float]] = field(default_factory=list)
 
     @property
     def dynamic(self) -> bool:
-        return bool(self.route) and bool(self.schedule)
+        return bool(self.replay) or (bool(self.route) and bool(self.schedule))

@@ -118,20 +118,25 @@ def read_trajectory(path: str | Path) -> Trajectory:
     return traj
 
 
-def _smooth(values: np.ndarray, t: np.ndarray, window: float) -> np.ndarray:
-    """Centred moving average over ``window`` seconds (the samples' own spacing)."""
+def _smooth(values: np.ndarray, t: np.ndarray, window: float, *, trend: bool = False) -> np.ndarray:
+    """Centred moving average over ``window`` seconds (the samples' own spacing); ``trend``:
+    the ends are extended along their slope instead of held (a moving car's positions)."""
     step = float(np.median(np.diff(t))) if len(t) > 1 else 1.0
     k = max(1, int(round(window / step)))
     if k <= 1 or len(values) < k:
         return values.astype(float)
-    pad = np.pad(values.astype(float), (k // 2, k - 1 - k // 2), mode="edge")
+    widths = (k // 2, k - 1 - k // 2)
+    pad = (np.pad(values.astype(float), widths, mode="reflect", reflect_type="odd") if trend
+           else np.pad(values.astype(float), widths, mode="edge"))
     return np.convolve(pad, np.ones(k) / k, mode="valid")
 
 
 def _kinematics(traj: Trajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(smoothed x/y as an (n, 2) array, speed [m/s], acceleration along the path [m/s^2])."""
     t = traj.t
-    xs, ys = _smooth(traj.x, t, 0.6), _smooth(traj.y, t, 0.6)
+    # positions extended along their slope at the ends: a car moving at the first sample has
+    # its speed there (held ends would read 10 m/s as 7)
+    xs, ys = _smooth(traj.x, t, 0.6, trend=True), _smooth(traj.y, t, 0.6, trend=True)
     if traj.speed is not None:
         v = _smooth(traj.speed, t, 0.3)
     else:
@@ -193,6 +198,22 @@ def _onset(t: np.ndarray, signal: np.ndarray, threshold: float, *, after: float 
     return float(t[k])
 
 
+def motion(traj: Trajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(smoothed x/y (n, 2) [m], speed [m/s], acceleration [m/s^2], unwrapped heading [rad]),
+    the ends extended along their slope (a car that is moving at the first sample has its speed
+    there), for replaying the trajectory."""
+    t = traj.t
+    xs, ys = _smooth(traj.x, t, 0.6, trend=True), _smooth(traj.y, t, 0.6, trend=True)
+    if traj.speed is not None:
+        v = _smooth(traj.speed, t, 0.3, trend=True)
+    else:
+        v = _smooth(np.hypot(np.gradient(xs, t), np.gradient(ys, t)), t, 0.6, trend=True)
+    v = np.maximum(v, 0.0)
+    a = _smooth(np.gradient(v, t), t, 0.6)
+    xy = np.stack([xs, ys], axis=1)
+    return xy, v, a, _headings(traj, xy, v)
+
+
 def detect(traj: Trajectory, *, map_name: str | None = None) -> Detection:
     """The behavior the trajectory shows and when its reaction starts (see the module docstring)."""
     t = traj.t
@@ -252,4 +273,4 @@ def detect(traj: Trajectory, *, map_name: str | None = None) -> Detection:
                       "slow down, drive off from a stop, change lane or turn")
 
 
-__all__ = ["CLASSES", "Detection", "Trajectory", "detect", "read_trajectory"]
+__all__ = ["CLASSES", "Detection", "Trajectory", "detect", "motion", "read_trajectory"]

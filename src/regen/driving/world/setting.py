@@ -18,12 +18,31 @@ class Waypoint(Model):
     speed: float | None = None  # target speed at this waypoint [m/s]
 
 
+class RecordedEgo(Model):
+    """A recorded ego trajectory as the behavior (``regen generate --ego-trajectory``): what was
+    detected in it and its samples in map coordinates, one per simulation step; the ego replays
+    them exactly (:mod:`regen.driving.world.replay`)."""
+
+    source: str  # the file's name, for the report
+    frame: str  # 'ego_start' (placed on the map by the fit) or 'map' (given in map coordinates)
+    map: str  # the generated map it runs on
+    detected: str  # the behavior class (regen.driving.world.recorded.CLASSES)
+    event_time: float  # [s] from the first sample: when the reaction starts
+    placement: str  # how the path was put on the map, in words
+    evidence: list[str] = Field(default_factory=list)  # what the detection saw
+    dt: float  # [s] between samples
+    # (x [m], y [m], heading [rad from +x], speed [m/s]) at t = k * dt
+    samples: list[tuple[float, float, float, float]]
+
+
 class DrivingParams(BehaviorParams):
     """A driving behavior's parameters: the ego template it follows (a route with speed profile,
-    e.g. ``stop_abruptly``; default: the one its text describes), or an explicit route."""
+    e.g. ``stop_abruptly``; default: the one its text describes), an explicit route, or a
+    recorded trajectory that the ego replays (its template is the detected class's)."""
 
     ego_template: str | None = Field(default=None, description="Id of an ego behavior template")
     route: list[Waypoint] | None = Field(default=None, description="Explicit ego route")
+    recorded: RecordedEgo | None = Field(default=None, description="A recorded ego trajectory to replay")
 
 
 class DrivingWorld(WorldSettings):
@@ -44,4 +63,4 @@ class DrivingWorld(WorldSettings):
     grounding_notes: str | None = None  # why the rules wrote parts of it, in words
 
 
-__all__ = ["DrivingParams", "DrivingWorld", "Waypoint"]
+__all__ = ["DrivingParams", "DrivingWorld", "RecordedEgo", "Waypoint"]

@@ -45,6 +45,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from regen.driving.world.egos import MAX_BRAKE, EgoTemplate
+from regen.driving.world.replay import replay_position
 
 MIN_SPEED = 0.5  # below this ego speed [m/s] the time to arrival is not used
 HOLD = 1e-3  # an untriggered actor holds its schedule this long [s] before t_trig
@@ -141,7 +142,10 @@ def scenic_source() -> str:
 
 def template_position(ego: EgoTemplate, t: float) -> tuple[float, float]:
     """Where [m] the template ego is at time ``t`` <= its event [s]: ``speed_event * t`` along its
-    route (every moving template keeps its start speed until its event)."""
+    route (every moving template keeps its start speed until its event); a replayed ego is where
+    its recording has it."""
+    if ego.replay:
+        return replay_position(ego, t)
     left = ego.speed_event * t
     route = ego.route
     for (ax, ay), (bx, by) in zip(route, route[1:], strict=False):

@@ -81,6 +81,10 @@ class EgoTemplate:
     s_end: float = 0.0  # where the ego is at the end [m] (frame)
     junction_maps: tuple[str, ...] = ()  # maps it can also run on (same geometry of the event)
     needs: tuple[str, ...] = field(default_factory=tuple)  # what the map must offer
+    # a recorded trajectory the ego replays exactly: (x, y, heading, speed) every ``replay_dt``
+    # seconds (regen.driving.world.replay); empty: the ego follows ``route`` and ``schedule``
+    replay: tuple[tuple[float, float, float, float], ...] = ()
+    replay_dt: float = 0.1
 
     # --- what each template's subclass says -------------------------------------------------
     rank: ClassVar[int] = 99  # place in listings (the paper's order)
