@@ -20,7 +20,8 @@ from regen.verify.predicates import PredicateSpec, list_predicates
 # keys, and `collided`, `collides` and `collision` ask for a crash that placements are solved to
 # avoid (they stay in the library for verification and behavior tests).
 HIDDEN_PREDICATES = {"state_is", "collided", "collides", "collision"}
-_PROPERTY_PREDICATES = {"siren_on", "door_open", "hazard_lights_on", "light_is", "signal_degraded"}
+_PROPERTY_PREDICATES = {"siren_on", "door_open", "hazard_lights_on", "light_is", "signal_degraded",
+                        "perceived_error_above"}
 
 
 def menu(domain: str = "driving") -> list[PredicateSpec]:
@@ -76,7 +77,7 @@ def never_holds(call: PredicateCall, roles: dict[str, RoleChoice], template: Ego
         if want not in values:
             shown = ", ".join(sorted(values)) or "nothing"
             return f"{call} never holds: {a} shows {shown}"
-    if name == "signal_degraded":
+    if name in ("signal_degraded", "perceived_error_above"):
         bad = {k: v for k, v in props.items() if k in ("gnss_signal", "camera_view")
                and v not in ("nominal", "clear")}
         if not bad:

@@ -32,6 +32,7 @@ from regen.driving.world.maps import geometry
 from regen.driving.world.plan import ActorPlan
 from regen.driving.world.properties import state_schedules
 from regen.driving.world.replay import ego_template
+from regen.driving.world.sensing import sensing_spec
 from regen.driving.world.setting import DrivingParams, DrivingWorld
 from regen.errors import ConfigError, GroundingError, UngroundableError
 
@@ -447,4 +448,5 @@ def plans_for(scenario: Scenario, db: AssetDatabase | None = None) -> tuple[EgoT
         plan = for_actor(r.asset, r.primitive).plan(placed)
         plan.states = state_schedules(r, params, t)
         plans.append(plan)
+    ego.sensing = sensing_spec(plans, t)  # an ego that reacts to what a degraded sensor makes it perceive
     return t, plans

@@ -33,7 +33,7 @@ def _plan(placed: Placed) -> ActorPlan:
 def _rule_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:
     a = r.name
     return RuleStates(initial=("nominal", [pred("signal_degraded", a, negate=True)]),
-                      cause=(("degraded", [pred("signal_degraded", a)]),))
+                      cause=(("degraded", [pred("signal_degraded", a), pred("perceived_error_above", a)]),))
 
 
 SPEC = Primitive(

@@ -16,6 +16,7 @@ import re
 import jinja2
 
 from regen.driving.world.plan import ActorPlan, LaneChange
+from regen.driving.world.sensing import scenic_source as sensing_source
 from regen.driving.world.triggers import KINDS, Trigger, scenic_source
 from regen.errors import ConfigError
 from regen.templates import environment
@@ -71,6 +72,20 @@ def _trigger(trigger: Trigger | None) -> str:
         raise ConfigError(f"unknown trigger kind {trigger.kind!r}; choose one of: {', '.join(KINDS)}")
     kind, *numbers = trigger.spec()
     return "(" + ", ".join([repr(kind)] + [_num(v) for v in numbers]) + ")"
+
+
+def _sensing(sensing: tuple | None) -> str:
+    """The ego's sensing spec (regen.driving.world.sensing.sensing_spec) as program text."""
+    if sensing is None:
+        return "None"
+    spec, *numbers = sensing
+    if spec is None:
+        trigger = "None"
+    else:
+        if spec[0] not in KINDS:
+            raise ConfigError(f"unknown trigger kind {spec[0]!r}; choose one of: {', '.join(KINDS)}")
+        trigger = "(" + ", ".join([repr(spec[0])] + [_num(v) for v in spec[1:]]) + ")"
+    return "(" + ", ".join([trigger] + [_num(v) for v in numbers]) + ")"
 
 
 def _lane_change(lane_change: LaneChange | None) -> str:
@@ -130,11 +145,12 @@ def write_program(plans: list[ActorPlan], *, map_path: str, dt: float, max_steps
             "trigger": _trigger(p.trigger) if behavior else "",
             "lane_change": _lane_change(p.lane_change),
             "poses": _poses(p.replay) if behavior == "ReplayPath" else "",
+            "sensing": _sensing(p.sensing) if behavior == "FollowRoute" else "None",
         })
     return _template().render(
         title=" ".join(re.sub(r"[^A-Za-z0-9 _.,:;()-]", " ", title).split())[:200],
         map_path=_literal(str(map_path)),
         narrative=_literal(" ".join(narrative.split())),
         seed=int(seed), dt=_num(dt), max_steps=int(max_steps), actors=actors,
-        trigger_source=scenic_source(),
+        trigger_source=scenic_source() + "\n\n\n" + sensing_source(),
     )

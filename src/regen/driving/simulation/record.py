@@ -3,7 +3,8 @@
 The Newtonian model knows poses and speeds only. This module adds, per step: map facts (lane,
 on road, on sidewalk, in junction) from the analytic map geometry, and property states that
 the model lacks: scheduled states (traffic lights, sirens, doors, hazard lights, sensor
-signals), brake lights derived from deceleration, and a GNSS position error for sensors.
+signals), brake lights derived from deceleration, and what a sensor makes the ego perceive (the
+GNSS error and perceived position, the camera's lost view: regen.driving.world.sensing).
 Scheduled states run on the actor's warped clock (:mod:`regen.driving.world.triggers`), computed
 step by step from the recorded ego as the Scenic program computed it, so a light turns red when
 the simulated actors saw it turn.
@@ -20,10 +21,10 @@ from regen.driving.simulation.run import RawRun
 from regen.driving.world.egos import JUNCTION_CX
 from regen.driving.world.maps import MapGeometry
 from regen.driving.world.plan import ActorPlan
+from regen.driving.world.sensing import BASE, ERROR_STATE, effect_of, perceived_error
 from regen.driving.world.triggers import fire_times
 
 BRAKE_LIGHT_DECEL = 1.0  # deceleration above which brake lights are lit [m/s^2]
-GNSS_SIGMA = {"nominal": 0.3, "noisy": 3.0, "jammed": 40.0}  # horizontal error scale [m]
 
 
 def map_facts(geo: MapGeometry, x: float, y: float) -> tuple[int | None, bool, bool, bool]:
@@ -60,10 +61,25 @@ def _scheduled(schedule: list[tuple[float, str]], times: list[float]) -> list[st
     return out
 
 
+def _perception(p: ActorPlan, states: dict[str, list], clock: list[float], xs, ys, hs) -> None:
+    """A sensor's perceived error at every step (regen.driving.world.sensing, the function the
+    ego reacted to in the simulation) and, for GNSS, the position the ego perceives."""
+    for key, error_key in ERROR_STATE.items():
+        if key not in states:
+            continue
+        eff = effect_of(p)
+        base = BASE[key]
+        errors = ([perceived_error(c - eff.t_switch, eff.rate, eff.magnitude, base) for c in clock]
+                  if eff is not None else [base] * len(clock))
+        states[error_key] = [round(e, 4) for e in errors]
+        if key == "gnss_signal":  # off to the ego's left
+            states["perceived_x"] = [round(x - math.sin(h) * e, 4) for x, h, e in zip(xs, hs, errors, strict=True)]
+            states["perceived_y"] = [round(y + math.cos(h) * e, 4) for y, h, e in zip(ys, hs, errors, strict=True)]
+
+
 def build_trace(run: RawRun, plans: list[ActorPlan], geo: MapGeometry, *, map_path: str,
                 seed: int = 0, meta: dict | None = None) -> Trace:
     """The Trace of a run: every plan gets a track (sensors ride on the actor they attach to)."""
-    rng = np.random.default_rng(seed)
     actors: dict[str, ActorTrack] = {}
     n = len(run.times)
     ego = (run.x["ego"], run.y["ego"], run.speed["ego"]) if "ego" in run.x else None
@@ -81,6 +97,7 @@ def build_trace(run: RawRun, plans: list[ActorPlan], geo: MapGeometry, *, map_pa
             "on_sidewalk": [f[2] for f in facts],
             "in_junction": [f[3] for f in facts],
         }
+        clock = run.times
         if p.states:
             clock = (fire_times(p.trigger.spec(), run.times, *ego) if p.trigger is not None and ego
                      else run.times)
@@ -90,12 +107,14 @@ def build_trace(run: RawRun, plans: list[ActorPlan], geo: MapGeometry, *, map_pa
             acc = np.gradient(np.asarray(vs), run.dt) if n >= 2 else np.zeros(n)
             broken = p.states.get("brake_lights", [(0.0, "")])[-1][1] == "broken"
             states["brake_lights"] = ["off" if broken or a > -BRAKE_LIGHT_DECEL else "on" for a in acc]
-        if "gnss_signal" in states:
-            sig = states["gnss_signal"]
-            states["gnss_error"] = [float(abs(rng.normal(0.0, GNSS_SIGMA.get(str(s), 0.3)))) for s in sig]
+        _perception(p, states, clock, xs, ys, hs)
         actors[p.name] = ActorTrack(asset=p.asset, kind=p.kind, length=p.length, width=p.width,
                                     height=p.height, x=list(xs), y=list(ys), heading=hs,
                                     speed=list(vs), states=states)
+    for track in actors.values():  # the pictures draw the perceived position on the ego
+        if "perceived_x" in track.states and "ego" in actors and track.x:
+            actors["ego"].states["gnss_x"] = track.states["perceived_x"]
+            actors["ego"].states["gnss_y"] = track.states["perceived_y"]
     info = {"simulator": "scenic-newtonian", "map": geo.name, "map_path": str(map_path)}
     info.update(meta or {})
     return Trace(dt=run.dt, times=list(run.times), actors=actors, meta=info)

@@ -13,6 +13,7 @@ from collections.abc import Callable
 import numpy as np
 
 from regen.core.trace import Trace
+from regen.driving.world.sensing import ERROR_STATE, LIMITS
 from regen.verify.predicates import arr, predicate, state
 
 D = ("driving",)
@@ -194,6 +195,17 @@ def _signal_degraded(trace: Trace, args: list[str], params: dict) -> np.ndarray:
     for key, ok in (("gnss_signal", "nominal"), ("camera_view", "clear")):
         vals = state(trace, args[0], key)
         out |= np.array([v is not None and str(v) != ok for v in vals], dtype=bool)
+    return out
+
+
+@predicate("perceived_error_above", 1, "what the sensor makes the ego perceive is off by more than the "
+           "ego trusts (GNSS position error > 2 m, camera view lost > 0.5; or > limit)", domains=D)
+def _perceived_error_above(trace: Trace, args: list[str], params: dict) -> np.ndarray:
+    out = np.zeros(trace.steps, dtype=bool)
+    for key, error_key in ERROR_STATE.items():
+        limit = float(params.get("limit", LIMITS[key]))
+        vals = state(trace, args[0], error_key)
+        out |= np.array([v is not None and float(v) > limit for v in vals], dtype=bool)
     return out
 
 

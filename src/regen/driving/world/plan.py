@@ -83,6 +83,8 @@ class ActorPlan:
     comment: str = ""
     # 'ReplayPath': the pose (x, y, heading [rad from +x], speed) at every step, set exactly
     replay: list[tuple[float, float, float, float]] = field(default_factory=list)
+    # the ego reacts to a degraded sensor (regen.driving.world.sensing.sensing_spec), or None
+    sensing: tuple | None = None
 
     @property
     def dynamic(self) -> bool:

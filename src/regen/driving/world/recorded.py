@@ -134,9 +134,8 @@ def _smooth(values: np.ndarray, t: np.ndarray, window: float, *, trend: bool = F
 def _kinematics(traj: Trajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(smoothed x/y as an (n, 2) array, speed [m/s], acceleration along the path [m/s^2])."""
     t = traj.t
-    # positions extended along their slope at the ends: a car moving at the first sample has
-    # its speed there (held ends would read 10 m/s as 7)
-    xs, ys = _smooth(traj.x, t, 0.6, trend=True), _smooth(traj.y, t, 0.6, trend=True)
+    # ends held (the detector's thresholds were measured so; :func:`motion` extends them)
+    xs, ys = _smooth(traj.x, t, 0.6), _smooth(traj.y, t, 0.6)
     if traj.speed is not None:
         v = _smooth(traj.speed, t, 0.3)
     else:
@@ -228,7 +227,9 @@ def detect(traj: Trajectory, *, map_name: str | None = None) -> Detection:
         h0 = c_first
     else:
         turn, h0 = float(h[-1] - h[0]), float(h[0])
-    ev = [f"speed {v0:.1f} -> {v_end:.1f} m/s", f"heading change {math.degrees(turn):+.0f} deg"]
+    shown = motion(traj)[1]  # speeds with the ends extended: what a reader expects at the ends
+    ev = [f"speed {float(np.median(shown[:edge])):.1f} -> {float(np.median(shown[-edge:])):.1f} m/s",
+          f"heading change {math.degrees(turn):+.0f} deg"]
     decel = -a
 
     def result(cls: str, when: float | None) -> Detection:

@@ -99,7 +99,7 @@ def _place(traj: Trajectory, det: Detection, map_name: str | None) -> tuple[str,
 
 def _check_on_map(map_name: str, xs: np.ndarray, ys: np.ndarray, source: str) -> None:
     g = geometry(map_name)
-    if xs.min() < g.x_min - 0.5 or xs.max() > g.x_max + 0.5:
+    if not g.junction and (xs.min() < g.x_min - 0.5 or xs.max() > g.x_max + 0.5):
         raise ConfigError(f"trajectory {source}: x runs from {xs.min():.0f} to {xs.max():.0f} m, beyond the map "
                           f"{map_name} ({g.x_min:.0f} to {g.x_max:.0f} m); check the frame (--map takes map "
                           "coordinates, without it x is metres ahead of the ego's start)")
