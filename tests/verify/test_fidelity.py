@@ -143,3 +143,14 @@ def test_a_motion_named_without_its_actor_needs_someone_who_makes_it() -> None:
     assert f.status == "unfaithful" and "'wrong way' (wrong_way)" in f.reason and "nobody" in f.reason
     car = chain("stop_abruptly", text, ("sedan", {"behavior": ["wrong_way"], "start_location": ["ahead_same_lane"]}))
     assert _fidelity(car).status == "faithful"  # rules decide: the one motion named is made
+
+
+def test_a_pedestrian_that_steps_onto_the_road_must_cross_not_walk_along() -> None:
+    # seen in a real run: the model's walk_along on the sidewalk was verified for this cause
+    along = chain("stop_abruptly", "a pedestrian steps onto the road ahead",
+                  ("adult", {"behavior": ["walk_along"], "start_location": ["roadside_ahead"]}))
+    f = _fidelity(along)
+    assert f.status == "unfaithful" and "cross_the_road" in f.reason and "walk_along" in f.reason
+    across = chain("stop_abruptly", "a pedestrian steps onto the road ahead",
+                   ("adult", {"behavior": ["cross_the_road"], "start_location": ["roadside_ahead"]}))
+    assert _fidelity(across).status == "faithful"
