@@ -61,3 +61,35 @@ def test_with_a_nominal_signal_the_ego_never_stops_and_is_not_verified(tmp_path)
     assert min(tr.actors["ego"].speed) > 9.0  # nothing it perceived made it brake
     verdict = json.loads((tmp_path / "nominal" / "verdict.json").read_text())
     assert verdict["status"] != "verified"
+
+
+@pytest.mark.slow
+def test_a_policy_under_test_observes_the_jammed_position_and_loses_the_view_ahead_in_glare():
+    from regen.driving.grounding.rules import ground_rule_based
+    from regen.driving.testing.loop import run_policy
+
+    seen = []
+
+    def policy(obs):
+        seen.append((obs.t, obs.ego.x, obs.ego.y, [a.name for a in obs.actors]))
+        return (0.0, 0.0)
+
+    jam = ground_rule_based(chain("stop_abruptly", "GPS jamming", ("gnss", {"gnss_signal": ["jammed"]})))
+    ep = run_policy(jam, policy, step_timeout=None)
+    ego = ep.trace.actors["ego"]
+    off = [abs(y - ego.y[k]) for k, (_, _, y, _) in enumerate(seen)]
+    assert off[0] == pytest.approx(0.3, abs=1e-3) and max(off) == pytest.approx(30.0, abs=1e-3)
+    assert all(abs(x - ego.x[k]) < 1e-6 for k, (_, x, _, _) in enumerate(seen))  # off to its left only
+    seen.clear()
+    glare = ground_rule_based(chain("stop_abruptly", "sun glare blinds the front camera while a truck is ahead",
+                                    ("camera", {"camera_view": ["glare"]}),
+                                    ("truck", {"behavior": ["drive_forward"], "start_location": ["ahead_same_lane"],
+                                               "target_speed": ["slow"]})))
+    tr = run_policy(glare, policy, step_timeout=None).trace
+    truck, ego = tr.actors["truck1"], tr.actors["ego"]
+    ahead = [truck.x[k] > ego.x[k] for k in range(len(seen))]
+    truck_seen = [("truck1" in names) for _, _, _, names in seen]
+    assert ahead[0] and truck_seen[0]  # seen ahead at first
+    hidden = [k for k in range(len(seen)) if ahead[k] and not truck_seen[k]]
+    lost = np.asarray(tr.actors["camera1"].states["view_lost"], dtype=float)
+    assert hidden and all(lost[k] > 0.5 for k in hidden)  # hidden only while the glare blinds it

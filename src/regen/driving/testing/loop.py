@@ -39,6 +39,7 @@ from regen.driving.testing.policies import (
 )
 from regen.driving.world.actors import actor_category
 from regen.driving.world.plan import ActorPlan
+from regen.driving.world.sensing import LIMITS, effect_of, perceived_error
 from regen.driving.world.triggers import warped_time
 from regen.errors import SimulationError
 from regen.harness.contract import Episode
@@ -116,6 +117,8 @@ class _Driver:
         self.names: list[str] = []
         self.policy_time = 0.0
         self.t_fire: dict[str, float | None] = {}  # actor -> when its trigger fired [s]
+        # the ego's sensors whose signal degrades: the policy observes what they perceive
+        self.sensors = [(p, eff) for p in prep.plans if (eff := effect_of(p)) is not None]
 
     # recording, as regen.driving.simulation.run does
     def record(self, sim) -> None:
@@ -136,22 +139,37 @@ class _Driver:
             out.append((px, py))
         return tuple(out)
 
+    def _perceived(self, t: float, ego_now) -> tuple[float, float]:
+        """(GNSS position error [m], share of the camera's view lost) the ego perceives at ``t``."""
+        out = {"gnss_signal": 0.0, "camera_view": 0.0}
+        for p, eff in self.sensors:
+            clock = t
+            if p.trigger is not None and ego_now is not None:
+                self.t_fire[p.name], clock = warped_time(p.trigger.spec(), self.t_fire.get(p.name), t, *ego_now)
+            out[eff.key] = perceived_error(clock - eff.t_switch, eff.rate, eff.magnitude, eff.base)
+        return out["gnss_signal"], out["camera_view"]
+
     def observe(self, sim) -> Observation:
+        """What the policy sees: the ego where its GNSS puts it (off to its left by the perceived
+        error of a degraded receiver) and no actor ahead while its camera has lost more than
+        half its view (:mod:`regen.driving.world.sensing`)."""
         t = sim.currentTime * self.prep.dt
         actors = []
         ego = None
         eo = sim.objects[self.names.index("ego")] if "ego" in self.names else None
         ego_now = ((float(eo.position.x), float(eo.position.y), float(math.hypot(eo.velocity.x, eo.velocity.y)))
                    if eo is not None else None)
+        gnss_error, view_lost = self._perceived(t, ego_now)
         for i, o in enumerate(sim.objects):
             name = self.names[i]
             h = float(o.heading) + math.pi / 2  # Scenic measures headings from +y
             if name == "ego":
-                ego = EgoState(x=float(o.position.x), y=float(o.position.y),
-                               heading=math.atan2(math.sin(h), math.cos(h)),
+                px = float(o.position.x) - math.sin(h) * gnss_error if self.sensors else float(o.position.x)
+                py = float(o.position.y) + math.cos(h) * gnss_error if self.sensors else float(o.position.y)
+                ego = EgoState(x=px, y=py, heading=math.atan2(math.sin(h), math.cos(h)),
                                speed=float(math.hypot(o.velocity.x, o.velocity.y)),
                                length=float(o.length), width=float(o.width), cruise_speed=self.cruise,
-                               route_ahead=self._route_ahead(float(o.position.x), float(o.position.y), h))
+                               route_ahead=self._route_ahead(px, py, h))
                 continue
             p = self.by_name.get(name)
             if p is None or not p.cls:
@@ -171,6 +189,9 @@ class _Driver:
                                      length=p.length, width=p.width, **vis))
         if ego is None:
             raise SimulationError("the Scenic program has no object named 'ego'")
+        if view_lost > LIMITS["camera_view"] and eo is not None:  # the camera sees nothing ahead
+            c, s = math.cos(ego.heading), math.sin(ego.heading)
+            actors = [a for a in actors if (a.x - eo.position.x) * c + (a.y - eo.position.y) * s <= 0.0]
         return Observation(t=round(t, 6), dt=self.prep.dt, ego=ego, actors=tuple(actors))
 
     def act(self, sim) -> None:
