@@ -13,8 +13,11 @@ before the ego's reaction, so no FSM can be accepted without its cause having pl
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from regen.core.scenario import FSM, AbstractState, PredicateCall, Stage, StateRef
 from regen.driving.primitives import for_actor
+from regen.driving.primitives._attention import min_wait, waiting_at_green
 from regen.driving.primitives.base import RuleStates, State, pred
 from regen.driving.world.actors import RoleChoice
 from regen.driving.world.egos import EgoTemplate
@@ -29,10 +32,17 @@ def ego_states(t: EgoTemplate) -> tuple[State, list[State]]:
     return t.ego_states()
 
 
-def actor_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:
+def actor_states(r: RoleChoice, t: EgoTemplate, roles: Sequence[RoleChoice] = ()) -> RuleStates:
     """The initial, cause and final states of one actor: those of its primitive, each with the
-    states its properties show all along (siren, hazard lights)."""
+    states its properties show all along (siren, hazard lights); a distracted driver waiting at
+    a light of ``roles`` shows it stopped on green first."""
     states = for_actor(r.asset, r.primitive).rule_states(r, t)
+    light = waiting_at_green(roles, t).get(r.name)
+    wait = min_wait(r)
+    if light is not None and wait is not None:
+        states = RuleStates(initial=states.initial, final=states.final, cause=(
+            ("stopped_on_green", [pred("stopped_on_green", r.name, light, min_duration=wait),
+                                  pred("in_front", r.name, "ego", distance=20.0)]),) + tuple(states.cause[1:]))
     extra: Calls = []
     if r.properties.get("siren") == "on":
         extra.append(pred("siren_on", r.name))
@@ -48,8 +58,10 @@ def actor_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:
 
 def cause_states(roles: list[RoleChoice], t: EgoTemplate) -> list[AbstractState]:
     """Every actor's cause states (marked ``cause``), actors in path order, each in its order."""
+    lights = set(waiting_at_green(roles, t).values())  # a light a driver waits at shows its green first
+    ordered = [r for r in roles if r.name in lights] + [r for r in roles if r.name not in lights]
     return [AbstractState(name=name, actor=r.name, all_of=calls, cause=True)
-            for r in roles for name, calls in actor_states(r, t).cause]
+            for r in ordered for name, calls in actor_states(r, t, roles).cause]
 
 
 def rule_based_fsm(roles: list[RoleChoice], t: EgoTemplate) -> FSM:
@@ -58,7 +70,7 @@ def rule_based_fsm(roles: list[RoleChoice], t: EgoTemplate) -> FSM:
     first: list[StateRef] = []
     finals: list[StateRef] = []
     for r in roles:
-        own = actor_states(r, t)
+        own = actor_states(r, t, roles)
         for st, bucket in ((own.initial, first), (own.final, finals)):
             if st is not None:
                 states.append(AbstractState(name=st[0], actor=r.name, all_of=st[1]))

@@ -14,6 +14,7 @@ from typing import Any
 
 from regen.core.scenario import SolverReport
 from regen.driving.primitives import for_actor
+from regen.driving.primitives._attention import couple
 from regen.driving.world.actors import ActorSpec
 from regen.driving.world.egos import EgoTemplate
 from regen.driving.world.placement import DM, PlacementModel
@@ -34,6 +35,7 @@ def placement_model(ego: EgoTemplate, actors: list[ActorSpec]) -> PlacementModel
     M = PlacementModel(ego)
     for a in actors:
         for_actor(a.asset, a.primitive).constrain(M, a)
+    couple(M, actors)  # what one actor's mind does with another's state (a driver at its light)
     return M
 
 

@@ -203,7 +203,8 @@ def frame(bg: Image.Image, view: View, actors: list[Actor], story: Story, times:
     for a in reversed(shown):  # ego first: its tag gets the best spot
         r = 0.5 * max(a.length, a.width) * view.scale + 2
         color = BODY.get(a.category, (240, 240, 240))
-        f.label(a.name, float(a.x[i]), float(a.y[i]), r, color)
+        mind = a.state("driver_state", i)  # a mental state that changes what it does is shown
+        f.label(a.name + (f" ({mind})" if mind == "distracted" else ""), float(a.x[i]), float(a.y[i]), r, color)
     _draw_scale_bar(f)
     if title:
         font = text_font(13, bold=True)

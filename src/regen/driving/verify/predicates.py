@@ -198,6 +198,18 @@ def _signal_degraded(trace: Trace, args: list[str], params: dict) -> np.ndarray:
     return out
 
 
+@predicate("stopped_on_green", 2, "a has stood still while light b shows green for at least min_duration "
+           "[s] (a driver failing to move off)", domains=D, params={"min_duration": 1.5})
+def _stopped_on_green(trace: Trace, args: list[str], params: dict) -> np.ndarray:
+    still = arr(trace, args[0], "speed") < 0.3
+    both = still & _equals(trace, args[1], "light_state", "green")
+    need = max(1, int(round(float(params.get("min_duration", 1.5)) / trace.dt)))
+    run = np.zeros(trace.steps, dtype=int)
+    for k in range(trace.steps):
+        run[k] = (run[k - 1] + 1 if k else 1) if both[k] else 0
+    return run >= need
+
+
 @predicate("perceived_error_above", 1, "what the sensor makes the ego perceive is off by more than the "
            "ego trusts (GNSS position error > 2 m, camera view lost > 0.5; or > limit)", domains=D)
 def _perceived_error_above(trace: Trace, args: list[str], params: dict) -> np.ndarray:
