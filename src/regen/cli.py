@@ -436,6 +436,16 @@ def _mount_whatif() -> None:
 _mount_whatif()
 
 
+def _mount_augment() -> None:
+    from regen.augment.cli import augment_command
+
+    app.command("augment", help="Augment a scene: the model proposes causes to add and entities that do not "
+                                "matter; each is grounded, simulated and verified.")(friendly(augment_command))
+
+
+_mount_augment()
+
+
 def _mount_eval() -> None:
     from regen.evaluation.cli import eval_command
 
