@@ -31,7 +31,7 @@ SIDEWALK_WIDTH = 2.0  # [m]
 STRAIGHT_LENGTH = 400.0  # [m], the straight road spans x in [-200, 200]
 ARM_LENGTH = 150.0  # [m] length of each junction arm
 JUNCTION_RADIUS = 12.0  # [m] from the junction centre to where each arm starts
-MAP_VERSION = "1"  # bump when the generator changes, so cached maps are regenerated
+MAP_VERSION = "2"  # bump when the generator changes, so cached maps are regenerated
 
 
 @dataclass(frozen=True)
@@ -105,6 +105,7 @@ def _road(xodr, road_id: int, length: float, lanes: int):
     """A straight road with ``lanes`` driving lanes each way and a sidewalk on each side."""
     road = xodr.create_road(xodr.Line(length), road_id, left_lanes=lanes, right_lanes=lanes,
                             lane_width=LANE_WIDTH)
+    road.add_elevation(0.0, 0.0, 0.0, 0.0, 0.0)  # flat; an empty elevationProfile fails the 1.5 schema
     for section in road.lanes.lanesections:
         walk_r = xodr.Lane(lane_type=xodr.LaneType.sidewalk, a=SIDEWALK_WIDTH)
         walk_r.add_roadmark(xodr.std_roadmark_solid())
@@ -154,6 +155,9 @@ def _build_junction(xodr, name: str, arms: tuple[str, ...]):
                 creator.add_connection(ids[a], ids[b], lane_one_id=1, lane_two_id=-1)
     odr.add_junction_creator(creator)
     odr.adjust_roads_and_lanes()
+    for road in odr.roads.values():  # the junction's connecting roads too: flat, explicitly
+        if not road.elevationprofile.elevations:
+            road.add_elevation(0.0, 0.0, 0.0, 0.0, 0.0)
     return odr
 
 
