@@ -15,4 +15,8 @@ export CMAKE_ARGS="${CMAKE_ARGS:--DLLAVA_BUILD=OFF -DGGML_NATIVE=OFF -DGGML_AVX=
 .venv/bin/python -m pip install --quiet --upgrade pip
 .venv/bin/python -m pip install --progress-bar off -e ".[all]"
 .venv/bin/regen model prepare
+# The ASAM Quality Checker bundles (the standard's own checkers of the exported .xodr and .xosc)
+# pin other numpy and lxml versions: they get a virtual environment of their own.
+[ -d .venv-qc ] || "$PYTHON" -m venv .venv-qc
+.venv-qc/bin/python -m pip install --quiet --progress-bar off asam-qc-opendrive==1.0.0 asam-qc-openscenarioxml==1.0.0
 echo "setup done: activate with '. .venv/bin/activate' or call .venv/bin/regen"
