@@ -76,3 +76,18 @@ def test_a_claim_that_the_cause_is_irrelevant_fails_and_an_unknown_addition_is_n
     # a hand-built scene has no run.json: the counterfactuals go beside augment.json (in a run: RUN/whatif)
     assert Path(truck["folder"]).parent == run / "augment"
     assert "claim fails" in res.output
+
+
+def test_an_addition_is_judged_as_a_cause_of_the_behavior_not_of_the_old_cause(scene, tmp_path, monkeypatch):
+    provider = QueuedProvider([{"add": ["a cyclist rides ahead"], "irrelevant": []},
+                               {"answer": "no", "reason": "a cyclist riding ahead gives no reason to brake hard"}])
+    monkeypatch.setitem(registry._FACTORIES, "queued", lambda name, **kw: provider)
+    res = CliRunner().invoke(app, ["augment", str(scene), "--llm", "queued:test", "--no-pictures",
+                                   "--out", str(tmp_path / "aug")], env={"COLUMNS": "200"})
+    assert res.exit_code == 0, res.output
+    asked = provider.requests[-1][-1]["content"]
+    assert "a cyclist rides ahead" in asked and "stops abruptly" in asked  # the behavior, not the truck
+    record = json.loads((tmp_path / "aug" / "01-truck-brakes-augment" / "augment.json").read_text())
+    (added,) = record["additions"]
+    assert added["status"].startswith("verified") and not added["holds"]
+    assert "no cause of the behavior" in added["reason"]

@@ -20,7 +20,7 @@ from pydantic import Field
 from regen.core.base import Answer, Model
 from regen.core.scenario import Scenario
 from regen.errors import ConfigError, RegenError
-from regen.whatif import Edit, run_whatif
+from regen.whatif import Edit, judge_root, run_whatif
 
 if TYPE_CHECKING:
     from regen.llm import LLM
@@ -75,7 +75,8 @@ def propose(scenario: Scenario, llm: LLM, assets: list[str]) -> tuple[Proposal, 
 
     prompt = render("regen.augment", "propose", behavior=scenario.behavior.text,
                     cause=scenario.causal_graph[0], cast="\n".join(_cast(scenario)),
-                    assets=", ".join(a.replace("_", " ") for a in assets), max_add=MAX_ADD)
+                    assets=", ".join(a.replace("_", " ") for a in assets), max_add=MAX_ADD,
+                    first_name=next((e.name for e in scenario.entities if e.kind != "robot"), "sedan1"))
     got = llm.ask(prompt, Proposal, purpose="augment")
     p = got.value
     adds = list(dict.fromkeys(" ".join(t.split()) for t in p.add if t.strip()))[:MAX_ADD]
@@ -110,12 +111,16 @@ def run_augment(scenario_dir: str | Path, out: str | Path, llm: LLM, *, judge: L
             on_step(f"{i}/{len(tries)}: {'add' if op == 'add' else 'remove'} {what}")
         edit = Edit(op="add", text=what) if op == "add" else Edit(op="remove", entity=what)
         try:
-            dest, w = run_whatif(src.path, [edit], whatifs, judge=judge, pictures=pictures)
+            dest, w = run_whatif(src.path, [edit], whatifs, pictures=pictures)
         except RegenError as exc:  # the addition names nothing the simulator has, say
             tried = Tried(proposal=what, status="not_applied", holds=False, reason=str(exc))
         else:
-            holds = (w.status in ("verified", "verified_after_relaxation")) if op == "add" else w.explained
-            tried = Tried(proposal=what, folder=str(dest), status=w.status, holds=holds, reason=w.reason)
+            holds, reason = w.explained, w.reason
+            if op == "add" and judge is not None and holds:  # a cause of the behavior, not of the old cause
+                judged = judge_root(judge, scenario.domain, [what, scenario.behavior.text])
+                if judged["plausible"] is False:
+                    holds, reason = False, f"{reason}; but the judge found it no cause of the behavior: {judged['reason']}"
+            tried = Tried(proposal=what, folder=str(dest), status=w.status, holds=holds, reason=reason)
         (record.additions if op == "add" else record.irrelevant).append(tried)
     dest = Path(out).absolute() / f"{src.path.name}-augment"
     write_json(dest / AUGMENT_JSON, record)
