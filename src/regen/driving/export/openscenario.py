@@ -26,7 +26,9 @@ import numpy as np
 from regen.core.io import atomic_write_bytes
 from regen.core.scenario import Scenario
 from regen.core.trace import ActorTrack, Trace
+from regen.driving.export.storyboard import fire_index, triggered_group
 from regen.driving.world.setting import DrivingWorld
+from regen.driving.world.triggers import Spec
 from regen.errors import ConfigError, DependencyNotInstalled, RegenError
 
 log = logging.getLogger(__name__)
@@ -207,11 +209,27 @@ def _map_file(scenario: Scenario, trace: Trace) -> Path | None:
     return None
 
 
+def _triggers(scenario: Scenario) -> dict[str, Spec]:
+    """Actor -> the trigger that starts its cause action (empty when the scenario cannot be planned)."""
+    try:
+        from regen.driving.grounding.rules import plans_for
+
+        _, plans = plans_for(scenario)
+    except (RegenError, KeyError, ValueError) as exc:
+        log.warning("scenario %s: no triggers for the OpenSCENARIO export (%s); actors replay on time", scenario.id, exc)
+        return {}
+    return {p.name: p.trigger.spec() for p in plans if p.trigger is not None and p.kind != "sensor"}
+
+
 def export_openscenario(scenario: Scenario, trace: Trace, out_dir: Path, *,
-                        sample_dt: float = SAMPLE_DT) -> dict[str, Path]:
+                        sample_dt: float = SAMPLE_DT, include_ego: bool = True) -> dict[str, Path]:
     """Write ``scenario.xosc`` (OpenSCENARIO 1.2) and a copy of the ``.xodr`` map into ``out_dir``.
 
-    ``sample_dt`` [s] is the spacing of trajectory vertices. Returns ``{"xosc": path}`` plus
+    ``sample_dt`` [s] is the spacing of trajectory vertices. An actor whose cause action starts on
+    a trigger gets a storyboard event started by the matching condition on the ego
+    (:mod:`regen.driving.export.storyboard`); the others replay their recorded path on
+    simulation time. ``include_ego=False`` leaves out the ego's own story (the ego is still
+    placed), for a user who drives it with their own stack. Returns ``{"xosc": path}`` plus
     ``"xodr"`` when the map is known. A trace without steps raises :class:`ConfigError`.
     """
     if trace.steps == 0:
@@ -251,6 +269,7 @@ def export_openscenario(scenario: Scenario, trace: Trace, out_dir: Path, *,
     act = xosc.Act(f"{safe_name(scenario.id)}_replay", xosc.ValueTrigger(
         "act_start", 0, xosc.ConditionEdge.none, xosc.SimulationTimeCondition(0, xosc.Rule.greaterOrEqual)))
     moving = 0
+    triggers = _triggers(scenario)
     for orig, track in trace.actors.items():
         kind = _kind(track.asset, db)
         if kind is None or not track.x:
@@ -261,10 +280,22 @@ def export_openscenario(scenario: Scenario, trace: Trace, out_dir: Path, *,
         init.add_init_action(name, xosc.TeleportAction(_position(xosc, track, heading, 0)))
         x, y = np.asarray(track.x, float), np.asarray(track.y, float)
         if orig not in standing and float(np.hypot(np.diff(x), np.diff(y)).sum()) >= MOVING:
+            if orig == "ego" and not include_ego:
+                continue
             if track.speed and kind != "misc":
                 init.add_init_action(name, xosc.AbsoluteSpeedAction(float(track.speed[0]), xosc.TransitionDynamics(
                     xosc.DynamicsShapes.step, xosc.DynamicsDimension.time, 0)))
-            act.add_maneuver_group(_trajectory_event(xosc, name, track, heading, times, sample_dt))
+            spec = triggers.get(orig)
+            k_fire = fire_index(spec, trace) if spec is not None else None
+            if spec is not None and k_fire is not None:
+                idx = sorted(set(int(i) for i in _samples(times, sample_dt)) | {k_fire})
+                where = idx.index(k_fire)
+                before = float(np.hypot(np.diff(x[: k_fire + 1]), np.diff(y[: k_fire + 1])).sum())
+                act.add_maneuver_group(triggered_group(
+                    xosc, name, [_position(xosc, track, heading, i) for i in idx], times[idx], where, spec,
+                    names.get("ego", "ego"), moves_before=before >= MOVING))
+            else:
+                act.add_maneuver_group(_trajectory_event(xosc, name, track, heading, times, sample_dt))
             moving += 1
     if moving:
         story.add_act(act)

@@ -1,0 +1,78 @@
+"""The OpenSCENARIO storyboard keeps the scenario's triggers: read back as parsed XML, a crossing
+child starts on the ego's distance (or time to reach) to its crossing point, a car cutting in
+starts its lane change at a longitudinal offset from the ego (or at its latest time), each with
+the ego as the triggering entity and its recorded path timed from the event's start; the flag
+without the ego's story leaves the ego placed but not driven."""
+
+from __future__ import annotations
+
+import json
+import xml.etree.ElementTree as ET
+
+import pytest
+from driving_chains import FEASIBLE
+
+pytest.importorskip("scenic")
+
+CHILD = FEASIBLE["stop_abruptly"][0]  # a child runs across the road (approach trigger)
+CUT_IN = FEASIBLE["slow_down"][2]  # a car cuts in (offset trigger)
+
+
+def _export(path, folder, **kw):
+    from regen.core.scenario import Scenario
+    from regen.core.trace import Trace
+    from regen.driving.export.openscenario import export_openscenario
+    from regen.pipeline.stages import run_path
+
+    assert run_path(path, folder, pictures=False).verdict.feasible
+
+    sc = Scenario.model_validate(json.loads((folder / "scenario.json").read_text())["scenario"])
+    tr = Trace.model_validate_json((folder / "trace.json").read_text())
+    out = export_openscenario(sc, tr, folder / "x", **kw)
+    return ET.parse(out["xosc"]).getroot(), sc
+
+
+def _event(root, name: str):
+    return next(e for e in root.iter("Event") if e.get("name") == name)
+
+
+def test_a_crossing_child_starts_on_the_egos_distance_or_time_to_its_crossing_point(tmp_path):
+    root, _ = _export(CHILD, tmp_path / "child")
+    cause = _event(root, "child1_cause")
+    groups = cause.find("StartTrigger").findall("ConditionGroup")
+    assert len(groups) == 2  # OR: near enough, or soon enough
+    kinds = []
+    for g in groups:
+        (cond,) = g.findall("Condition")
+        entity = cond.find("ByEntityCondition")
+        assert entity.find("TriggeringEntities/EntityRef").get("entityRef") == "ego"
+        inner = entity.find("EntityCondition")
+        kinds.append(inner[0].tag)
+        pos = inner[0].find(".//Position/WorldPosition")
+        assert pos is not None and float(inner[0].get("value")) > 0
+    assert kinds == ["DistanceCondition", "TimeToCollisionCondition"]
+    follow = cause.find(".//FollowTrajectoryAction")
+    assert follow.find("TimeReference/Timing").get("domainAbsoluteRelative") == "relative"
+    vertices = follow.findall(".//Polyline/Vertex")
+    assert float(vertices[0].get("time")) == 0.0 and len(vertices) > 2  # timed from the event's start
+
+
+def test_a_cut_in_starts_at_a_longitudinal_offset_from_the_ego(tmp_path):
+    root, sc = _export(CUT_IN, tmp_path / "cut")
+    cause = _event(root, "sedan1_cause")
+    groups = cause.find("StartTrigger").findall("ConditionGroup")
+    rel = groups[0].find("Condition/ByEntityCondition")
+    assert rel.find("TriggeringEntities/EntityRef").get("entityRef") == "sedan1"
+    cond = rel.find("EntityCondition/RelativeDistanceCondition")
+    assert cond.get("entityRef") == "ego" and cond.get("relativeDistanceType") == "longitudinal"
+    assert groups[1].find("Condition/ByValueCondition/SimulationTimeCondition") is not None  # at the latest
+    # it drives alongside before the trigger: that part is on simulation time
+    before = _event(root, "sedan1_before_trigger")
+    assert before.find(".//FollowTrajectoryAction/TimeReference/Timing").get("domainAbsoluteRelative") == "absolute"
+
+
+def test_without_the_egos_story_the_ego_is_placed_but_not_driven(tmp_path):
+    root, _ = _export(CHILD, tmp_path / "noego", include_ego=False)
+    assert any(p.get("entityRef") == "ego" for p in root.iter("Private"))
+    actors = [ref.get("entityRef") for g in root.iter("ManeuverGroup") for ref in g.findall("Actors/EntityRef")]
+    assert "ego" not in actors and "child1" in actors
