@@ -101,11 +101,15 @@ def _template() -> jinja2.Template:
 
 
 def write_program(plans: list[ActorPlan], *, map_path: str, dt: float, max_steps: int,
-                  narrative: str = "", seed: int = 0, title: str = "regen scenario") -> str:
+                  narrative: str = "", seed: int = 0, title: str = "regen scenario",
+                  blueprints: dict[str, str] | None = None) -> str:
     """The Scenic program text for ``plans`` (the ego first) on the map at ``map_path``.
 
     ``dt`` is the step [s]; ``max_steps`` the number of steps the scenario is meant to run.
-    Sensors (``cls == ''``) are not Scenic objects and are left out.
+    Sensors (``cls == ''``) are not Scenic objects and are left out. ``blueprints`` (asset ->
+    CARLA blueprint id): the same program for Scenic's CARLA model instead of its Newtonian one
+    (the map by file name, ``carla_map`` its stem; the behaviors use the driving domain's own
+    actions, which both models run).
     """
     actors = []
     seen: set[str] = set()
@@ -145,12 +149,16 @@ def write_program(plans: list[ActorPlan], *, map_path: str, dt: float, max_steps
             "trigger": _trigger(p.trigger) if behavior else "",
             "lane_change": _lane_change(p.lane_change),
             "poses": _poses(p.replay) if behavior == "ReplayPath" else "",
+            "blueprint": _literal(blueprints[p.asset]) if blueprints and blueprints.get(p.asset) else "",
             "sensing": _sensing(p.sensing) if behavior == "FollowRoute" else "None",
         })
     return _template().render(
         title=" ".join(re.sub(r"[^A-Za-z0-9 _.,:;()-]", " ", title).split())[:200],
-        map_path=_literal(str(map_path)),
+        # CARLA's program sits beside its copy of the map: found relative to the program file
+        map_path=(f"localPath({_literal(str(map_path).rsplit('/', 1)[-1])})" if blueprints is not None
+                  else _literal(str(map_path))),
         narrative=_literal(" ".join(narrative.split())),
         seed=int(seed), dt=_num(dt), max_steps=int(max_steps), actors=actors,
         trigger_source=scenic_source() + "\n\n\n" + sensing_source(),
+        carla=blueprints is not None, carla_map=_literal(re.sub(r"\.xodr$", "", str(map_path).rsplit("/", 1)[-1])),
     )
