@@ -26,8 +26,9 @@ def _in_the_ego_path(m: PlacementModel, a: ActorSpec, s: Any) -> None:
 def _near_the_event(m: PlacementModel, a: ActorSpec, s: Any) -> None:
     e = m.ego
     ref = e.s_end if e.stops else e.s_event
-    # (an ego that waits at its event stays there: the actor must stand clear ahead of its front)
-    ahead = EGO_SIZE[0] / 2 + 1.0 if e.speed_event == 0.0 and not e.stops else -4.0
+    # an ego that waits at its event stays there: the actor must stand clear ahead of its front;
+    # one that stops must still have it ahead where it comes to rest (its final state says so)
+    ahead = EGO_SIZE[0] / 2 + 1.0 if e.speed_event == 0.0 and not e.stops else (1.0 if e.stops else -4.0)
     m.at_least(a, "stands ahead of the ego's event position", s, ref + m.half(a) + ahead)
     m.at_most(a, "stands within 30 m of it", s, ref + 30.0)
 
