@@ -57,9 +57,12 @@ def _junit(out: Path) -> ET.Element:
 
 
 def _cli(*args: str, **kw) -> subprocess.Popen:
-    """``regen test`` as a user runs it: its own process (kills and signals reach only it)."""
+    """``regen test`` as a user runs it: its own process (kills and signals reach only it), with
+    Ctrl-C's default meaning even when the suite itself was started in the background (a shell
+    without job control starts background commands with SIGINT ignored, and children inherit it)."""
     return subprocess.Popen([sys.executable, "-m", "regen.cli", "test", *args], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, **kw)
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL), **kw)
 
 
 # --- the policy cannot crash, fake or hang the harness ---------------------------------------
