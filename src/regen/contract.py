@@ -64,6 +64,10 @@ class Wording:
     #: added takes part in an event, as (event, entity, "yes" or "no"); a few short ones of the
     #: domain, none from a labeled set
     entity_examples: tuple[tuple[str, str, str], ...] = ()
+    #: Database categories whose members play one part in a cause: an asset of one of them that
+    #: the model adds beside one the cause's words name is refused (a traffic queue added to 'the
+    #: front car', bound to a sedan). Empty: categories too coarse to say (every asset one kind).
+    one_part_per_category: tuple[str, ...] = ()
     #: Phrases a cause uses for the robot itself ('the vehicle' in "a cyclist crosses while the
     #: vehicle is moving"): they name no asset of the database. A phrase starting with 'the'
     #: still names another one when a place follows ('the vehicle ahead').

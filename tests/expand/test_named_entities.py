@@ -140,3 +140,15 @@ def test_a_motion_named_without_its_actor_grounds_the_first_asset_that_makes_it(
     g = _expand("driving", model)
     sedan = _node(g, "sedan", "entity")
     assert sedan.status == "accepted" and sedan.history[0].by == "database"
+
+
+def test_a_model_added_entity_of_the_same_kind_as_a_named_one_is_refused_without_asking() -> None:
+    # 'the front car' is bound to a sedan; a traffic queue the model adds would be a second lead car
+    lights = "the front car with broken brake lights stops"
+    model = ScriptedModel(causes={STOP: [lights]}, entities={lights: ["traffic_queue", "debris"]})
+    g = _expand("driving", model)
+    queue = _node(g, "traffic_queue", "entity")
+    assert queue.status == "rejected" and "play the same part again" in queue.history[-1].reason
+    assert "vehicles" in queue.history[-1].reason
+    assert [e.asset for e in g.paths()[0].entities][:1] == ["sedan"]
+    assert _node(g, "debris", "entity").status == "accepted"  # another kind: judged (yes), kept

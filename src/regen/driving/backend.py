@@ -95,6 +95,7 @@ class DrivingBackend(DomainBackend):
         ),
         # the ego's own words carry no meaning when telling causes apart
         stop_words=("ego", "vehicle"),
+        one_part_per_category=("vehicles", "pedestrians"),
     )
     report_hints = ReportHints(animation="bird's-eye animation of the run",
                                keyframes="key frames at the start, at each stage and at the end "

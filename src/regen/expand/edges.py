@@ -246,9 +246,11 @@ def select_entities(llm: LLM, db: AssetDatabase, domain: Domain, chain: list[str
     """Entities of the database directly related to the event ``chain[0]``.
 
     The assets the event's words name (:func:`named_entities`) are taken whatever the model
-    answers, first, as decided by the database; an asset only the model chose must also pass a
-    yes/no judge (:func:`judge_entity`), else it is rejected with the judge's answer. The
-    robot's own task objects (``DomainBackend.own_objects``) are never a cause's entity.
+    answers, first, as decided by the database; an asset only the model chose is rejected when
+    it is of the same category as one the words name (it would play the same part again), and
+    must otherwise pass a yes/no judge (:func:`judge_entity`), else it is rejected with the
+    judge's answer. The robot's own task objects (``DomainBackend.own_objects``) are never a
+    cause's entity.
     """
     domain = domain_view(domain)
     own = domain.own_objects(behavior)
@@ -284,6 +286,16 @@ def select_entities(llm: LLM, db: AssetDatabase, domain: Domain, chain: list[str
             if how:
                 out.matched[target] = how
     extra = [a for a in picked if a not in out.named]
+    # an asset the model adds beside one the words name, of the same kind, plays the same part
+    # twice ('the front car' bound to a sedan, and a traffic queue added ahead as well)
+    kinds = {k: a for a in out.named if (k := db.category_of(a)) in domain.wording.one_part_per_category}
+    for a in list(extra):
+        named_kind = kinds.get(db.category_of(a) or "")
+        if named_kind is not None:
+            extra.remove(a)
+            out.matched.pop(a, None)
+            out.rejected[a] = (f"the event names a {named_kind.replace('_', ' ')} ({db.category_of(a)}); a "
+                               f"{a.replace('_', ' ')} the model added would play the same part again")
     verdicts = llm.map(lambda a: judge_entity(llm, db, domain, chain[0], a), extra)
     for asset, v in zip(extra, verdicts, strict=True):
         out.calls[asset] = v.call_id
