@@ -192,3 +192,25 @@ def test_a_manipulation_context_removed_leaves_the_task_unexplained(tmp_path):
     _, record = _record(res)
     assert record["original_explained"] and not record["explained"] and record["status"] == "unfaithful"
     assert any(c["before"] and "pet1" in c["before"] for c in record["stages_changed"])
+
+
+def test_an_added_cause_is_bound_by_the_states_and_motion_its_words_name(tmp_path):
+    # seen in a real `regen augment`: a light added as 'turns red' stayed in its default state,
+    # and a cyclist that 'swerves into the lane' drove straight on, verified
+    from regen import domains
+    from regen.core.scenario import Scenario
+    from regen.whatif import Edit, apply_edits
+
+    folder = tmp_path / "run" / "scenarios" / "01-slow-truck"
+    assert run_path(FEASIBLE["slow_down"][0], folder, pictures=False).verdict.feasible
+    doc = json.loads((folder / "scenario.json").read_text())["scenario"]
+    path = json.loads((folder / "path.json").read_text())
+    from regen.core.graph import CausePath
+
+    db = domains.make("driving").database()
+    new = apply_edits(Scenario.model_validate(doc), CausePath.model_validate(path),
+                      [Edit(op="add", text="a traffic light turns red"),
+                       Edit(op="add", text="a cyclist swerves into the lane ahead")], db)
+    props = {e.asset: e.properties for e in new.entities}
+    assert props["traffic_light"]["light_state"] == ["turns_red"]
+    assert props["bicycle"]["behavior"] == ["change_lane"]

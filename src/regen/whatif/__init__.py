@@ -163,7 +163,11 @@ def apply_edits(scenario: Scenario, path: CausePath, edits: list[Edit], db: Asse
                 raise ConfigError(f"add cause '{text}': its words name no asset of the {db.name} database; "
                                   "name one (e.g. 'a truck', 'a pedestrian')")
             events.insert(0, text)
-            entities += [PathEntity(asset=a, event=text) for a in named]
+            # the states and motion its words name bind it, as they bind a graph's entity
+            # ("a traffic light turns red": light_state = turns_red)
+            entities += [PathEntity(asset=a, event=text, properties={
+                p: [hit[0]] for p in db.parameters_of(a) if (hit := db.named_state(a, p, text)) is not None})
+                for a in named]
     kept = [pe for i, pe in enumerate(entities) if i not in removed]
     return path.model_copy(update={"events": events, "entities": kept})
 
