@@ -8,18 +8,13 @@ from pathlib import Path
 
 import typer
 from rich.console import Console
-from rich.markup import escape
 
-from regen.core.text import clean
 from regen.errors import ConfigError, RegenError
+from regen.whatif.cli import shown
 
 console = Console(highlight=False, soft_wrap=True)
 LLM_HELP = ("Model that proposes (and judges, unless --no-judge): local (offline default), local:<alias or "
             ".gguf>, openai:<model>, anthropic:<model> (keys as for regen generate)")
-
-
-def shown(value: object) -> str:
-    return escape(clean(str(value)))
 
 
 def augment_command(

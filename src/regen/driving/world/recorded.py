@@ -131,15 +131,18 @@ def _smooth(values: np.ndarray, t: np.ndarray, window: float, *, trend: bool = F
     return np.convolve(pad, np.ones(k) / k, mode="valid")
 
 
-def _kinematics(traj: Trajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(smoothed x/y as an (n, 2) array, speed [m/s], acceleration along the path [m/s^2])."""
+def _kinematics(traj: Trajectory, *, trend: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(smoothed x/y as an (n, 2) array, speed [m/s], acceleration along the path [m/s^2]);
+    ends held (the detector's thresholds were measured so) or, with ``trend``, extended along
+    their slope (:func:`motion`)."""
     t = traj.t
-    # ends held (the detector's thresholds were measured so; :func:`motion` extends them)
-    xs, ys = _smooth(traj.x, t, 0.6), _smooth(traj.y, t, 0.6)
+    xs, ys = _smooth(traj.x, t, 0.6, trend=trend), _smooth(traj.y, t, 0.6, trend=trend)
     if traj.speed is not None:
-        v = _smooth(traj.speed, t, 0.3)
+        v = _smooth(traj.speed, t, 0.3, trend=trend)
     else:
-        v = _smooth(np.hypot(np.gradient(xs, t), np.gradient(ys, t)), t, 0.6)
+        v = _smooth(np.hypot(np.gradient(xs, t), np.gradient(ys, t)), t, 0.6, trend=trend)
+    if trend:
+        v = np.maximum(v, 0.0)
     a = _smooth(np.gradient(v, t), t, 0.6)
     return np.stack([xs, ys], axis=1), v, a
 
@@ -201,15 +204,7 @@ def motion(traj: Trajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nda
     """(smoothed x/y (n, 2) [m], speed [m/s], acceleration [m/s^2], unwrapped heading [rad]),
     the ends extended along their slope (a car that is moving at the first sample has its speed
     there), for replaying the trajectory."""
-    t = traj.t
-    xs, ys = _smooth(traj.x, t, 0.6, trend=True), _smooth(traj.y, t, 0.6, trend=True)
-    if traj.speed is not None:
-        v = _smooth(traj.speed, t, 0.3, trend=True)
-    else:
-        v = _smooth(np.hypot(np.gradient(xs, t), np.gradient(ys, t)), t, 0.6, trend=True)
-    v = np.maximum(v, 0.0)
-    a = _smooth(np.gradient(v, t), t, 0.6)
-    xy = np.stack([xs, ys], axis=1)
+    xy, v, a = _kinematics(traj, trend=True)
     return xy, v, a, _headings(traj, xy, v)
 
 
