@@ -68,3 +68,15 @@ def test_scoring_counts_entities_states_and_verified_but_unfaithful() -> None:
     rows = {(r["domain"], r["split"]): r for r in table([right, wrong])}
     row = rows[("driving", "all")]
     assert row["entity_accuracy"] == 0.5 and row["verified_and_unfaithful"] == 1
+
+
+def test_a_motions_speed_is_read_where_the_scenario_keeps_it() -> None:
+    """scenario.json keeps a moving actor's speed class in ``behavior_params``; a label asking
+    for target_speed = slow is met by it, and not by a fast one."""
+    case = next(c for c in load_cases("driving") if c.cause == "a motorcycle rides slowly in the lane ahead")
+    def moto(speed: str) -> dict:
+        return {"name": "motorcycle1", "asset": "motorcycle", "kind": "agent", "behavior": "drive_forward",
+                "properties": {}, "behavior_params": {"location": "ahead_same_lane", "speed_class": speed}}
+    slow, fast = (score(case, {"entities": [moto(s)]}, "verified") for s in ("slow", "fast"))
+    assert (slow.states_ok, slow.states_total, slow.label_unfaithful) == (1, 1, False)
+    assert (fast.states_ok, fast.label_unfaithful) == (0, True)

@@ -152,3 +152,15 @@ def test_a_model_added_entity_of_the_same_kind_as_a_named_one_is_refused_without
     assert "vehicles" in queue.history[-1].reason
     assert [e.asset for e in g.paths()[0].entities][:1] == ["sedan"]
     assert _node(g, "debris", "entity").status == "accepted"  # another kind: judged (yes), kept
+
+
+def test_a_sensor_in_a_cause_is_never_given_a_state_that_works() -> None:
+    """A GPS that is 'nominal' or a camera that is 'clear' explains nothing: the property judge
+    is offered only the sensor's faulty states, whatever the model would have picked."""
+    gps, cam = "the GPS receiver acts up", "something is wrong with the front camera"
+    model = ScriptedModel(causes={STOP: [gps, cam]}, entities={gps: ["gnss"], cam: ["camera"]},
+                          choose={"gnss_signal": ["nominal"], "camera_view": ["clear"]})
+    g = _expand("driving", model)
+    values = {n.property: n.value for n in g.nodes.values() if n.kind == "property" and n.status == "accepted"}
+    assert values["gnss_signal"] in ("noisy", "jammed")
+    assert values["camera_view"] in ("glare", "occluded")

@@ -141,11 +141,17 @@ class DrivingBackend(DomainBackend):
         """An actor's start locations and speed classes follow its behavior (motion primitive):
         only the starts the primitive supports and some map of the ego's template can host
         (no junction place for an ego that changes lanes on a straight road), and no speed for
-        one that does not move."""
+        one that does not move. A sensor: only its faulty states."""
         from regen.driving.grounding.rules import can_host
         from regen.driving.primitives import find, for_actor, is_state_only
 
         db = self.database()
+        if asset in db.assets and db.assets[asset].kind == "sensor":
+            # a sensor that works shows no cause: only the states with an effect on what the
+            # ego perceives (a GPS 'nominal' or a camera 'clear' explains nothing)
+            from regen.driving.world.sensing import EFFECTS
+            faults = {p: list(EFFECTS[p]) for p in db.parameters_of(asset) if p in EFFECTS}
+            return (None, {None: faults}) if faults else None
         if asset not in db.assets or is_state_only(asset) or not db.assets[asset].behaviors:
             return None
         starts = db.property_candidates(asset, "start_location") or []

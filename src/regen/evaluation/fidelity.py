@@ -51,8 +51,15 @@ class CaseResult:
         return not self.entities_ok or self.states_ok < self.states_total
 
 
+#: where scenario.json keeps a motion primitive's parameters (``behavior_params``) -> the
+#: database property they bind ('speed_class' is the solved actor's target_speed)
+_MOTION_PARAMS = {"speed_class": "target_speed", "location": "start_location"}
+
+
 def _entity_values(entity: dict[str, Any]) -> dict[str, str]:
-    props = {k: str(v) for k, v in (entity.get("properties") or {}).items()}
+    props = {_MOTION_PARAMS[k]: str(v) for k, v in (entity.get("behavior_params") or {}).items()
+             if k in _MOTION_PARAMS}
+    props.update({k: str(v) for k, v in (entity.get("properties") or {}).items()})
     if entity.get("behavior"):
         props["behavior"] = str(entity["behavior"])
     return props
