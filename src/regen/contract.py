@@ -140,7 +140,7 @@ class DomainBackend(ABC):
         self.params(behavior)
 
     def property_choices(self, asset: str, behavior: Behavior | None = None
-                         ) -> tuple[str | None, dict[str | None, dict[str, list[str]]]] | None:
+                         ) -> tuple[str | None, dict[str | None, Any]] | None:
         """Properties whose values the simulator restricts, or None.
 
         ``(key, {value of key: {property: allowed values}})``: once the entity's ``key``
@@ -149,7 +149,10 @@ class DomainBackend(ABC):
         actor has no speed). With ``key`` None the one entry (under None) holds whatever the
         entity's values: the start state of the object a manipulation task acts on, which the
         task fixes. Expansion asks the model for one consistent choice, so the graph never holds
-        a combination grounding cannot honor. ``behavior``: the behavior being explained.
+        a combination grounding cannot honor. A value of ``key`` may allow a list of such
+        dicts instead, alternatives where the other properties depend on each other too (a car
+        ahead in the ego's lane, before the ego stops, is no slow one; in the next lane it may
+        be). ``behavior``: the behavior being explained.
         Default: no restrictions.
         """
         return None

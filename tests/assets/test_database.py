@@ -156,3 +156,19 @@ def test_behavior_phrases_name_a_motion_only_the_asset_can_make_and_ambiguity_bi
     assert db.named_state("tow_truck", "behavior", event) is None
     # a phrase inside a longer one names nothing of its own: 'turns red' is not also 'red'
     assert db.named_states("traffic_light", "light_state", "the traffic light turns red") == {"turns_red": "turns red"}
+
+
+@pytest.mark.parametrize(("text", "expected"), [
+    ("a distracted driver fails to move despite a green light", {"traffic_light", "sedan"}),
+    ("the driver ahead is texting", {"sedan"}),
+    ("a road hazard ahead", set()),  # one word, and no word of 'hazard warning lights' beside it
+    ("a distracted cyclist rides ahead", {"bicycle"}),  # named: the shared state is not re-placed
+    ("a cyclist swerves into the lane", {"bicycle"}),  # 'swerves' is the lane change, not a state
+])
+def test_a_state_several_assets_share_is_held_by_the_generic_one_when_no_actor_is_named(text, expected) -> None:
+    """'a distracted driver' names a state every vehicle has and no asset: the first vehicle of
+    the database plays it (a green light alone cannot show a distracted driver)."""
+    named = domain_database("driving").named_assets(text, robot=["ego-vehicle", "ego"])
+    assert set(named) == expected
+    if "sedan" in expected:
+        assert "driver_state = distracted" in named["sedan"]

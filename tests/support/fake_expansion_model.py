@@ -63,7 +63,14 @@ class ScriptedModel:
         first offered; consistent with the prompt's rules for the key property's value."""
         offered = {p: [v.strip() for v in vals.split(" | ")]
                    for p, vals in re.findall(r"^- (\w+) \(.*?\): (.*)$", text, re.M)}
-        rules = {(k, v): rule for k, v, rule in re.findall(r"^- (\w+) = (\S+): (.*)$", text, re.M)}
+        found = re.findall(r"^- (\w+) = (\S+): (.*)$", text, re.M)
+        rules: dict[tuple[str, str], str] = {}
+        for k, v, rule in found:  # alternatives of one key value: the one that allows most wishes
+            def fits(r: str) -> int:
+                return sum(any(re.search(rf"\b{p} one of [^;]*\b{re.escape(w)}\b", r) for w in ws[:1])
+                           for p, ws in self.choose.items())
+            if (k, v) not in rules or fits(rule) > fits(rules[(k, v)]):
+                rules[(k, v)] = rule
         out: dict[str, str] = {}
         key = next((k for k, _ in rules), None)
         order = sorted(offered, key=lambda p: p != key)

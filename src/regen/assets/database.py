@@ -14,8 +14,6 @@ File format (JSON), mirroring the paper's ``node[...] = [...]`` graph with typed
 from __future__ import annotations
 
 import json
-import re
-from collections.abc import Sequence
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
@@ -26,20 +24,14 @@ from pydantic import Field, ValidationError, model_validator
 
 from regen.assets.names import (
     DESCRIPTION_WEIGHT,
-    FUNCTION_WORDS,
     MATCH_THRESHOLD,
-    PARAPHRASE_THRESHOLD,
-    key_vectors,
     main_phrases,
     phrases_in,
-    plain,
     similarity,
-    without_robot,
 )
+from regen.assets.naming import AssetMatch, Naming
 from regen.core.base import Model
 from regen.core.text import UNSAFE, escaped
-from regen.core.words import name_words
-from regen.core.words import surface_words as _surface
 from regen.errors import AssetDatabaseError, ConfigError
 
 
@@ -77,21 +69,7 @@ class BehaviorSpec(Model):
     parameters: list[str] = Field(default_factory=list)
 
 
-class AssetMatch(Model):
-    """How a model-written name was matched to an asset."""
-
-    asset: str
-    similarity: float  # 0-1, see :func:`similarity`
-    via: Literal["id", "alias", "description", "state", "motion", "paraphrase"]
-    key: str  # the id, alias or description phrase that matched
-    phrase: str = ""  # for a paraphrase: the words of the text that matched ``key``
-
-    def describe(self, name: str) -> str:
-        what = "" if self.via == "id" else f" (by its {self.via} '{self.key}')"
-        return f"matched '{name}' to asset '{self.asset}'{what} (similarity {self.similarity:.2f})"
-
-
-class AssetDatabase(Model):
+class AssetDatabase(Naming, Model):
     name: str
     simulator: str
     description: str = ""
@@ -163,145 +141,6 @@ class AssetDatabase(Model):
                 if score > top:  # strictly better: ties keep the earlier asset
                     top, best = score, AssetMatch(asset=aid, similarity=round(score, 2), via=via, key=key)
         return best
-
-    def named_in(self, text: str, *, exclude: str | Sequence[str] = "",
-                 skip: frozenset[str] = frozenset()) -> list[AssetMatch]:
-        """The assets ``text`` names, in the order it names them: an asset's id, one of its
-        aliases or a description phrase of two words or more, as whole words (plural or
-        singular, any case). Where names overlap the longest wins ('police car' over 'car'),
-        and an id over an alias over a description. The phrases of ``exclude`` (what the domain
-        calls its robot: 'ego-vehicle', 'the vehicle') name no asset where they occur, unless a
-        place follows ('the vehicle ahead' is another one); assets in ``skip`` are never returned. Each match has ``similarity`` 1.0 and the matched name as ``key``.
-        """
-        text = without_robot(text, [exclude] if isinstance(exclude, str) else list(exclude))
-        words = name_words(text)
-        surface = _surface(text)  # as written: a plural key ('pedestrians') beats a singular one
-        blocked: set[int] = set()
-        found: list[tuple[int, int, int, int, int, str, str, str]] = []  # (-length, exact, rank, start, order, ...)
-        for order, (aid, spec) in enumerate(self.assets.items()):
-            if aid in skip:
-                continue
-            keys = [("id", aid), *(("alias", a) for a in spec.aliases)]
-            keys += [("description", d) for d in main_phrases(spec.description) if len(d.split()) > 1]
-            for rank, (via, key) in enumerate(keys):
-                kw = name_words(key)
-                for i in range(len(words) - len(kw) + 1):
-                    if kw and words[i:i + len(kw)] == kw and blocked.isdisjoint(range(i, i + len(kw))):
-                        exact = 0 if surface[i:i + len(kw)] == _surface(key) else 1
-                        found.append((-len(kw), exact, min(rank, 2), i, order, aid, via, key))
-        taken: set[int] = set()
-        out: dict[str, tuple[int, AssetMatch]] = {}
-        for neg_len, _, _, start, _, aid, via, key in sorted(found):
-            span = set(range(start, start - neg_len))
-            if span & taken:
-                continue
-            taken |= span
-            if aid not in out:
-                out[aid] = (start, AssetMatch(asset=aid, similarity=1.0, via=via, key=key))  # type: ignore[arg-type]
-        return [m for _, m in sorted(out.values(), key=lambda x: x[0])]
-
-    def paraphrased_in(self, text: str, encoder: Any, *, exclude: str | Sequence[str] = "",
-                       skip: frozenset[str] = frozenset(),
-                       threshold: float = PARAPHRASE_THRESHOLD) -> list[AssetMatch]:
-        """The assets ``text`` names by a close paraphrase, where it names none by a name
-        (:meth:`named_in`) or by a state only one asset has (:meth:`implied_by_states`): each
-        phrase of one to three words that begins and ends with a content word, outside the
-        robot's own words, is compared by ``encoder`` (sentence embeddings, ``encode(texts) ->
-        unit rows``) with every asset's id and aliases; a phrase names the one asset it is
-        closest to when the cosine reaches ``threshold``. A paraphrase speaks only where no
-        name does: in 'the police car blocks the road', 'blocks road' (~ 'road block', 0.91)
-        says what the police car does; in 'a tree blocks the road' it names the road block."""
-        if self.named_in(text, exclude=exclude) or self.implied_by_states(text):
-            return []
-        names = [exclude] if isinstance(exclude, str) else list(exclude)
-        blanked = without_robot(text, names)
-        words, base = _surface(blanked), name_words(blanked)
-        blocked = {i for i, w in enumerate(base) if w == "itself"}
-        grams: list[tuple[int, str]] = []
-        for n in (1, 2, 3):
-            for i in range(len(words) - n + 1):
-                span = range(i, i + n)
-                if blocked.isdisjoint(span) and words[i] not in FUNCTION_WORDS \
-                        and words[i + n - 1] not in FUNCTION_WORDS:
-                    grams.append((i, " ".join(words[i:i + n])))
-        keys = [(aid, k) for aid in self.assets if aid not in skip
-                for k in (aid.replace("_", " "), *self.assets[aid].aliases)]
-        if not grams or not keys:
-            return []
-        sims = encoder.encode([g for _, g in grams]) @ key_vectors(encoder, tuple(k for _, k in keys)).T
-        best: dict[str, tuple[int, float, str, str]] = {}
-        for gi, (start, gram) in enumerate(grams):
-            ki = int(sims[gi].argmax())
-            score, (aid, key) = float(sims[gi, ki]), keys[ki]
-            if score >= threshold and score > best.get(aid, (0, 0.0))[1]:
-                best[aid] = (start, score, gram, key)
-        return [AssetMatch(asset=aid, similarity=round(score, 2), via="paraphrase", key=key, phrase=gram)
-                for aid, (_, score, gram, key) in sorted(best.items(), key=lambda x: x[1][0])]
-
-    def implied_by_states(self, text: str, *, skip: frozenset[str] = frozenset()) -> list[AssetMatch]:
-        """Assets that ``text`` names through a state only they have: a phrase of a property's
-        ``named_by`` ('turns red') whose property belongs to exactly one asset (a traffic light)."""
-        out: list[AssetMatch] = []
-        for prop, spec in self.properties.items():
-            owners = [a for a in self.assets if prop in self.parameters_of(a) and a not in skip]
-            if len(owners) != 1 or not spec.named_by:
-                continue
-            named = self.named_state(owners[0], prop, text)
-            if named is not None and len(named[1].split()) > 1:  # one word ('jammed') is too loose
-                out.append(AssetMatch(asset=owners[0], similarity=1.0, via="state",
-                                      key=f"{named[1]} ({prop} = {named[0]})"))
-        return out
-
-    def named_motions(self, text: str, *, robot: str | Sequence[str] = "") -> dict[str, str]:
-        """Every motion (a ``behavior`` state) ``text``'s words name for some asset, as
-        {motion: phrase} (:meth:`named_states` over the database's assets); a motion whose
-        subject is the robot ('the ego-vehicle turns left', ``robot``'s words) is its own."""
-        if "behavior" not in self.properties:
-            return {}
-        blanked = without_robot(text, [robot] if isinstance(robot, str) else list(robot))
-        out: dict[str, str] = {}
-        for a in self.assets:
-            for st, ph in self.named_states(a, "behavior", blanked).items():
-                if not re.search(rf"\bitself\s+{re.escape(plain(ph))}", plain(blanked)):
-                    out.setdefault(st, ph)
-        return out
-
-    def implied_by_motion(self, text: str, *, robot: str | Sequence[str] = "",
-                          skip: frozenset[str] = frozenset()) -> list[AssetMatch]:
-        """The actor of a motion ``text`` names without naming who makes it ('wrong-way driver
-        ahead'): the first asset, in the database's category order, that can make that one
-        motion (the generic member of its kind: a car). Nothing when the words name several
-        motions (several actors) or none (:meth:`named_motions`)."""
-        motions = self.named_motions(text, robot=robot)
-        if len(motions) != 1:
-            return []
-        ((motion, phrase),) = motions.items()
-        able = [a for a in self.entities() if a not in skip and motion in self.assets[a].behaviors]
-        return [AssetMatch(asset=able[0], similarity=1.0, via="motion",
-                           key=f"{phrase} (behavior = {motion})")] if able else []
-
-    def named_assets(self, text: str, *, robot: str | Sequence[str] = "",
-                     own: frozenset[str] = frozenset(), encoder: Any = None) -> dict[str, str]:
-        """Asset -> why, for every asset ``text`` names: by an id, alias or description phrase
-        (:meth:`named_in`, the words of ``robot`` excluded), by a state only it has
-        (:meth:`implied_by_states`); where none of these names one, by a motion only some assets
-        make (:meth:`implied_by_motion`) or, with an ``encoder``, by a close paraphrase
-        (:meth:`paraphrased_in`). ``own``: assets never returned (a task's own object)."""
-        out: dict[str, str] = {}
-        for m in self.named_in(text, exclude=robot, skip=own):
-            what = "its id" if m.via == "id" else f"its {m.via} '{m.key}'"
-            out[m.asset] = f"the event names it ({what})"
-        for m in self.implied_by_states(text, skip=own):
-            out.setdefault(m.asset, f"the event names a state only it has: {m.key}")
-        if encoder is not None and not out:
-            for m in self.paraphrased_in(text, encoder, exclude=robot, skip=own):
-                out.setdefault(m.asset, f"the event names it by a close paraphrase: '{m.phrase}' ~ "
-                                        f"'{m.key}' (cosine {m.similarity:.2f} >= {PARAPHRASE_THRESHOLD})")
-        if not out:
-            for m in self.implied_by_motion(text, robot=robot, skip=own):
-                out[m.asset] = (f"the event names a motion and no actor: {m.key}; the first asset "
-                                "of the database that makes it plays it")
-        return out
 
     def answers_to(self, asset: str, name: str) -> bool:
         """Whether ``asset`` is a thing ``name`` may mean: its id, an alias or a description

@@ -141,8 +141,11 @@ class DrivingBackend(DomainBackend):
         """An actor's start locations and speed classes follow its behavior (motion primitive):
         only the starts the primitive supports and some map of the ego's template can host
         (no junction place for an ego that changes lanes on a straight road), and no speed for
-        one that does not move. A sensor: only its faulty states."""
+        one that does not move; where the speed classes the solver can place depend on the start
+        (a car ahead of an ego that stops is no slow one), one alternative per group of starts.
+        A sensor: only its faulty states."""
         from regen.driving.grounding.rules import can_host
+        from regen.driving.grounding.speeds import solvable_speeds
         from regen.driving.primitives import find, for_actor, is_state_only
 
         db = self.database()
@@ -163,8 +166,10 @@ class DrivingBackend(DomainBackend):
                    if p in db.parameters_of(asset)}
         template = (ego_template(behavior.text, self.params(behavior))
                     if behavior is not None and behavior.domain == self.name else None)
+        size = tuple(float(x) for x in db.assets[asset].size)
         for b, spec in specs.items():
             allowed: dict[str, list[str]] = {}
+            here: list[str] = []
             if starts:
                 here = [x for x in spec.starts if x in starts] or list(starts)
                 if template is not None:
@@ -177,7 +182,14 @@ class DrivingBackend(DomainBackend):
                 allowed["target_speed"] = list(speeds)
             for p, values in implied.items():
                 allowed[p] = [spec.implies[p]] if p in spec.implies else list(values)
-            out[b] = allowed
+            by_speeds: dict[tuple[str, ...], list[str]] = {}
+            if template is not None and "target_speed" in allowed:  # the pairs the solver can place
+                props = tuple((p, v[0]) for p, v in allowed.items() if p in spec.implies)
+                for x in here:
+                    by_speeds.setdefault(solvable_speeds(template, asset, b, x, tuple(speeds), size, props),
+                                         []).append(x)
+            out[b] = (allowed if len(by_speeds) < 2 else
+                      [{**allowed, "start_location": xs, "target_speed": list(sp)} for sp, xs in by_speeds.items()])
         return ("behavior", out) if out else None
 
     def ground(self, path: CausePath, llm: LLM | None, *, seed: int = 0) -> Scenario:

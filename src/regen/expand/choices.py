@@ -13,7 +13,16 @@ from pydantic import create_model
 from regen.core.base import Answer
 from regen.core.words import name_words
 
-Choices = tuple[str | None, dict[str | None, dict[str, list[str]]]]  # DomainBackend.property_choices
+Allowed = dict[str, list[str]]  # property -> the values allowed with one key value
+#: DomainBackend.property_choices: (key property, key value -> what it allows). A list of
+#: alternatives where the allowed values depend on each other too (a lead car ahead of an ego
+#: that stops drives at least as fast as the ego; the same car in the next lane may be slow)
+Choices = tuple[str | None, dict[str | None, Allowed | list[Allowed]]]
+
+
+def alternatives(allowed: Allowed | list[Allowed] | None) -> list[Allowed | None]:
+    """The alternatives of one key value's restriction (one, unless the domain gave several)."""
+    return list(allowed) if isinstance(allowed, list) else [allowed]
 
 
 def choice_models(options: dict[str, tuple[str, list[str]]], choices: Choices | None) -> list[Any]:
@@ -26,25 +35,34 @@ def choice_models(options: dict[str, tuple[str, list[str]]], choices: Choices | 
 
     free = {p: list(v) for p, (_, v) in options.items()}
     if choices is not None and choices[0] is None:  # restrictions whatever the other values
-        fixed = {p: [v for v in vals if v in choices[1][None].get(p, vals)] or vals
-                 for p, vals in free.items()}
+        only = alternatives(choices[1][None])[0] or {}
+        fixed = {p: [v for v in vals if v in only.get(p, vals)] or vals for p, vals in free.items()}
         return [model("Values", fixed)]
     if choices is None or choices[0] not in options:
         return [model("Values", free)]
     key, per = choices
-    dependent = {p for allowed in per.values() for p in allowed}
+    dependent = {p for allowed in per.values() for alt in alternatives(allowed) for p in (alt or {})}
     out = []
     for value in options[key][1]:
-        allowed = per.get(value)
-        fixed: dict[str, list[str]] = {key: [value]}
-        for p, vals in free.items():
-            if p == key:
-                continue
-            if p not in dependent or allowed is None:
-                fixed[p] = vals
-            elif p in allowed:
-                fixed[p] = [v for v in vals if v in allowed[p]] or vals
-        out.append(model(f"Values{len(out)}", fixed))
+        alts = alternatives(per.get(value))
+        kept = 0
+        for i, allowed in enumerate(alts):
+            fixed: dict[str, list[str]] = {key: [value]}
+            for p, vals in free.items():
+                if p == key:
+                    continue
+                if p not in dependent or allowed is None:
+                    fixed[p] = vals
+                elif p in allowed:
+                    fixed[p] = [v for v in vals if v in allowed[p]]
+            if any(not v for v in fixed.values()):
+                # an alternative the offered values leave nothing of is no choice; if none is
+                # left, the last one with what was offered (the model's values are kept)
+                if len(alts) > 1 and (kept or i < len(alts) - 1):
+                    continue
+                fixed = {p: v or free[p] for p, v in fixed.items()}
+            kept += 1
+            out.append(model(f"Values{len(out)}", fixed))
     return out
 
 

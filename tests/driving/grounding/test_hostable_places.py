@@ -14,7 +14,8 @@ def _starts(ego: str, asset: str = "ambulance") -> dict[str, list[str]]:
     prop, choices = backend.property_choices(asset, Behavior(text="x", domain="driving",
                                                               params={"ego_template": ego}))
     assert prop == "behavior"
-    return {b: allowed["start_location"] for b, allowed in choices.items()}
+    return {b: sorted({x for alt in (allowed if isinstance(allowed, list) else [allowed])
+                       for x in alt["start_location"]}) for b, allowed in choices.items()}
 
 
 def test_an_ego_changing_lanes_on_a_straight_road_is_offered_no_junction_place() -> None:
@@ -30,3 +31,37 @@ def test_can_host_follows_the_map_rules() -> None:
     assert not can_host(lane, "junction_corner") and can_host(stop, "junction_corner")
     assert can_host(lane, "behind_adjacent_lane")  # its road has a second lane
     assert not can_host(stop, "nowhere_known")
+
+
+def test_a_lead_car_ahead_of_an_ego_that_stops_is_offered_no_speed_the_solver_cannot_place() -> None:
+    """'the front car with broken brake lights stops' was chosen slow ahead of an ego at 10 m/s:
+    unsatisfiable. The (start, speed) pairs offered are the ones the placement model solves."""
+    from regen.driving.grounding.placement import solve
+    from regen.driving.world.actors import ActorSpec
+    from regen.driving.world.egos import template_for
+    from regen.expand.choices import choice_models
+
+    backend = domains.make("driving")
+    _, choices = backend.property_choices("sedan", Behavior(text="x", domain="driving",
+                                                            params={"ego_template": "stop_abruptly"}))
+    alts = choices["drive_forward"]
+    assert isinstance(alts, list)
+    speeds = {x: alt["target_speed"] for alt in alts for x in alt["start_location"]}
+    assert "slow" not in speeds["ahead_same_lane"] and "slow" in speeds["ahead_adjacent_lane"]
+    t = template_for("x", "stop_abruptly")
+    for x, sp in (("ahead_same_lane", "slow"), ("ahead_same_lane", "moderate")):
+        solved = solve(t, [ActorSpec(name="a1", asset="sedan", primitive="drive_forward", location=x,
+                                     speed_class=sp, properties={}, size=(4.6, 1.9, 1.5))])
+        assert (solved.report.status in ("optimal", "feasible")) == (sp in speeds[x])
+    # the judge's schema allows exactly these pairs
+    options = {"behavior": ("", ["drive_forward"]), "start_location": ("", ["ahead_same_lane"]),
+               "target_speed": ("", ["slow", "moderate", "fast"])}
+    allowed = set()
+    for model in choice_models(options, ("behavior", {"drive_forward": alts})):
+        for sp in ("slow", "moderate", "fast"):
+            try:
+                model(behavior="drive_forward", start_location="ahead_same_lane", target_speed=sp)
+                allowed.add(sp)
+            except ValueError:
+                pass
+    assert allowed == set(speeds["ahead_same_lane"])

@@ -17,17 +17,20 @@ from regen.driving.primitives._attention import START_DELAY
 CAUSE = "a distracted driver ahead fails to move despite a green light"
 
 
-def _path(state: str):
+def _path(state: str, light: str = "red"):
     return chain("drive_forward", CAUSE,
                  ("sedan", {"behavior": ["drive_forward"], "start_location": ["ahead_same_lane"],
                             "driver_state": [state], "target_speed": ["moderate"]}),
-                 ("traffic_light", {"light_state": ["red"], "start_location": ["junction_corner"]}))
+                 ("traffic_light", {"light_state": [light], "start_location": ["junction_corner"]}))
 
 
-@pytest.mark.parametrize("state", ["attentive", "distracted"])
-def test_the_solved_start_delay_is_within_the_drivers_bounds(state):
-    sc = ground_rule_based(_path(state))
-    delay = sc.parameters["sedan1"]["t"] - sc.parameters["traffic_light1"]["t"]
+# a light that turns green, or (for a distracted driver: an attentive one would not be waiting)
+# one green from the start
+@pytest.mark.parametrize(("state", "light"), [("attentive", "red"), ("distracted", "red"), ("distracted", "green")])
+def test_the_solved_start_delay_is_within_the_drivers_bounds(state, light):
+    sc = ground_rule_based(_path(state, light))
+    green_at = sc.parameters["traffic_light1"]["t"] if light == "red" else 0.0
+    delay = sc.parameters["sedan1"]["t"] - green_at
     lo, hi = START_DELAY[state]
     assert lo - 1e-9 <= delay <= hi + 1e-9
     names = [s.name for s in sc.fsm.states if s.actor == "sedan1" and s.cause]
