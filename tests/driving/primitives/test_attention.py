@@ -60,3 +60,22 @@ def test_a_distracted_driver_stays_stopped_on_green_and_the_scenario_verifies(tm
     assert attentive.verdict.status == "unfaithful" and "driver_state = distracted" in attentive.verdict.reason
     verdict = json.loads((tmp_path / "a" / "verdict.json").read_text())
     assert verdict["feasible"] is False
+
+
+def test_a_model_fsm_gets_the_distracted_drivers_stopped_on_green_stage():
+    """The cause stages added to a model's FSM are computed with every role, so a distracted
+    driver's stage names the light it waits at (it was computed per actor, and a model-written
+    FSM got 'waiting_ahead' instead: a distracted and an attentive driver looked alike)."""
+    from regen.assets.database import database_of
+    from regen.core.scenario import FSM, AbstractState, PredicateCall, Stage, StateRef
+    from regen.driving.grounding.fsm_rules import with_cause_states
+    from regen.driving.grounding.model import path_roles
+    from regen.driving.grounding.rules import template_of
+
+    path = _path("distracted", "green")
+    sc = ground_rule_based(path)
+    moving = AbstractState(name="driving", actor="ego", all_of=[PredicateCall(name="moving", args=["ego"])])
+    model_fsm = FSM(states=[moving], stages=[Stage(conditions=[StateRef(actor="ego", state="driving")])])
+    fsm, added = with_cause_states(model_fsm, path_roles(path, database_of("driving")), template_of(sc))
+    names = [s.name for s in fsm.states if s.actor == "sedan1" and s.cause]
+    assert names[0] == "stopped_on_green", added

@@ -160,8 +160,9 @@ def with_cause_states(fsm: FSM, roles: list[RoleChoice], t: EgoTemplate) -> tupl
     states = {(s.actor, s.name): s for s in fsm.states}
     added: list[str] = []
     before: dict[int, list[Stage]] = {}  # stage index -> stages added right before it
+    every = cause_states(roles, t)  # with all roles: a driver's cause stage names the light it waits at
     for r in roles:
-        wanted = cause_states([r], t)
+        wanted = [s for s in every if s.actor == r.name]
         found: list[int | None] = []
         after = -1
         for want in wanted:
