@@ -179,9 +179,11 @@ class Naming:
         (:meth:`named_in`, the words of ``robot`` excluded), by a state only it has
         (:meth:`implied_by_states`); where none of these names one, by a motion only some assets
         make (:meth:`implied_by_motion`) or, with an ``encoder``, by a close paraphrase
-        (:meth:`paraphrased_in`). ``own``: assets never returned (a task's own object)."""
+        (:meth:`paraphrased_in`); where no name does, by a state several share
+        (:meth:`implied_by_shared_states`). ``own``: assets never returned (a task's own object)."""
         out: dict[str, str] = {}
-        for m in self.named_in(text, exclude=robot, skip=own):
+        by_name = self.named_in(text, exclude=robot, skip=own)
+        for m in by_name:
             what = "its id" if m.via == "id" else f"its {m.via} '{m.key}'"
             out[m.asset] = f"the event names it ({what})"
         for m in self.implied_by_states(text, skip=own):
@@ -194,7 +196,7 @@ class Naming:
             for m in self.implied_by_motion(text, robot=robot, skip=own):
                 out[m.asset] = (f"the event names a motion and no actor: {m.key}; the first asset "
                                 "of the database that makes it plays it")
-        if not self.named_in(text, exclude=robot, skip=own):
+        if not by_name:
             for m in self.implied_by_shared_states(text, robot=robot, skip=own, holders=list(out)):
                 out.setdefault(m.asset, f"the event names a state several assets share and no actor that "
                                         f"holds it: {m.key}; the first asset of the database that holds it plays it")

@@ -25,6 +25,11 @@ def alternatives(allowed: Allowed | list[Allowed] | None) -> list[Allowed | None
     return list(allowed) if isinstance(allowed, list) else [allowed]
 
 
+def dependent(per: dict[str | None, Allowed | list[Allowed]]) -> set[str]:
+    """The properties some value of the key property restricts (in any alternative)."""
+    return {p for allowed in per.values() for alt in alternatives(allowed) for p in (alt or {})}
+
+
 def choice_models(options: dict[str, tuple[str, list[str]]], choices: Choices | None) -> list[Any]:
     """One pydantic model per consistent combination family: the key property fixed to one value,
     the properties that depend on it restricted to (or, when absent, without) their allowed
@@ -41,7 +46,7 @@ def choice_models(options: dict[str, tuple[str, list[str]]], choices: Choices | 
     if choices is None or choices[0] not in options:
         return [model("Values", free)]
     key, per = choices
-    dependent = {p for allowed in per.values() for alt in alternatives(allowed) for p in (alt or {})}
+    restricted = dependent(per)
     out = []
     for value in options[key][1]:
         alts = alternatives(per.get(value))
@@ -51,7 +56,7 @@ def choice_models(options: dict[str, tuple[str, list[str]]], choices: Choices | 
             for p, vals in free.items():
                 if p == key:
                     continue
-                if p not in dependent or allowed is None:
+                if p not in restricted or allowed is None:
                     fixed[p] = vals
                 elif p in allowed:
                     fixed[p] = [v for v in vals if v in allowed[p]]

@@ -22,7 +22,7 @@ from regen.embeddings import optional_encoder
 from regen.errors import ConfigError
 from regen.expand.answers import EdgeVerdict, EntitySelection, EventProposal, YesNo
 from regen.expand.calibration import ANSWER_PREFIX, threshold_for
-from regen.expand.choices import Choices, alternatives, choice_models, only_names
+from regen.expand.choices import Choices, alternatives, choice_models, dependent, only_names
 from regen.expand.dedupe import normalize, similar
 from regen.llm.client import LLM
 from regen.templates import render
@@ -400,12 +400,12 @@ def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, en
     rules = []
     if choices is not None and choices[0] is not None and len(variants) > 1:
         key, per = choices
-        dependent = {q for a in per.values() for alt in alternatives(a) for q in (alt or {})}
+        restricted = dependent(per)
         for value, allowed in per.items():
             for alt in alternatives(allowed):
                 if value in options[key][1] and alt is not None:
                     parts = [f"{p} one of {' | '.join(v)}" for p, v in alt.items()]
-                    parts += [f"no {p}" for p in sorted(dependent) if p not in alt and p in options]
+                    parts += [f"no {p}" for p in sorted(restricted) if p not in alt and p in options]
                     rules.append((value, "; ".join(parts) or "nothing else"))
     example = ", ".join(f'"{p}": "<one value>"' for p in options)
 
