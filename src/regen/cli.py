@@ -466,6 +466,16 @@ def _mount_test() -> None:
 _mount_test()
 
 
+def _mount_import() -> None:
+    from regen.pipeline.import_cli import import_command
+
+    app.command("import", help="Import a scenario file (OpenSCENARIO .xosc for driving): its storyboard "
+                               "becomes a scenario with an FSM, simulated and verified.")(friendly(import_command))
+
+
+_mount_import()
+
+
 def print_json(value: Any) -> None:
     console.print_json(json.dumps(value, default=str))
 

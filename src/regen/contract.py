@@ -175,6 +175,16 @@ class DomainBackend(ABC):
 
         raise ConfigError(f"the {self.name} domain takes no recorded trajectory; give the behavior as text")
 
+    #: file suffixes ``regen import`` reads into this domain's scenarios (e.g. ``(".xosc",)``)
+    import_suffixes: tuple[str, ...] = ()
+
+    def import_scenario(self, path: Path) -> Scenario:
+        """A scenario from a file another tool wrote (a suffix of :attr:`import_suffixes`),
+        ready to simulate: its FSM derived from the file. Default: this domain imports none."""
+        from regen.errors import ConfigError
+
+        raise ConfigError(f"the {self.name} domain imports no scenario files")
+
     @abstractmethod
     def ground(self, path: CausePath, llm: LLM | None, *, seed: int = 0) -> Scenario:
         """Turn a cause path into a scenario with an FSM and solved parameters.

@@ -203,6 +203,14 @@ class DrivingBackend(DomainBackend):
             return ground_with_model(path, llm, seed=seed)
         return ground_rule_based(path, seed=seed)
 
+    import_suffixes = (".xosc",)
+
+    def import_scenario(self, path: Path) -> Scenario:
+        """An OpenSCENARIO 1.x file (:mod:`regen.driving.export.importing`)."""
+        from regen.driving.export.importing import import_xosc
+
+        return import_xosc(path)
+
     def simulate(self, scenario: Scenario, workdir: Path) -> SimulationOutput:
         from regen.driving.simulation.scenario import simulate_scenario
 

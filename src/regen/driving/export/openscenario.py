@@ -286,7 +286,7 @@ def export_openscenario(scenario: Scenario, trace: Trace, out_dir: Path, *,
                 init.add_init_action(name, xosc.AbsoluteSpeedAction(float(track.speed[0]), xosc.TransitionDynamics(
                     xosc.DynamicsShapes.step, xosc.DynamicsDimension.time, 0)))
             spec = triggers.get(orig)
-            k_fire = fire_index(spec, trace) if spec is not None else None
+            k_fire = fire_index(spec, trace, orig) if spec is not None else None
             if spec is not None and k_fire is not None:
                 idx = sorted(set(int(i) for i in _samples(times, sample_dt)) | {k_fire})
                 where = idx.index(k_fire)

@@ -10,7 +10,7 @@ on, with the ego as the triggering entity:
 trigger kind    start condition
 ==============  =====================================================================================
 time            SimulationTimeCondition: time >= the trigger time
-approach        DistanceCondition (ego within the trigger distance of the trigger point) OR
+approach, near DistanceCondition (ego within the trigger distance of the trigger point) OR
                 TimeToCollisionCondition (ego's time to reach that point <= the trigger's), two groups
 ego_slower      SpeedCondition: the ego slower than the trigger speed
 offset          RelativeDistanceCondition (the actor as far ahead of the ego, longitudinally, as in
@@ -32,14 +32,17 @@ from regen.core.trace import Trace
 from regen.driving.world.triggers import Spec, warped_time
 
 
-def fire_index(spec: Spec, trace: Trace) -> int | None:
-    """The step at which ``spec`` fired in the recording (None: it never did)."""
+def fire_index(spec: Spec, trace: Trace, actor: str | None = None) -> int | None:
+    """The step at which ``spec`` fired in the recording for ``actor`` (its position counts for
+    an offset trigger; None: it never did)."""
     ego = trace.actors.get("ego")
     if ego is None:
         return None
+    own = trace.actors.get(actor) if actor is not None else None
     t_fire = None
     for k, t in enumerate(trace.times):
-        t_fire, _ = warped_time(spec, t_fire, t, ego.x[k], ego.y[k], ego.speed[k])
+        ax, ay = (own.x[k], own.y[k]) if own is not None and k < len(own.x) else (None, None)
+        t_fire, _ = warped_time(spec, t_fire, t, ego.x[k], ego.y[k], ego.speed[k], ax, ay)
         if t_fire is not None:
             return k
     return None
@@ -53,11 +56,12 @@ def start_trigger(xosc: Any, name: str, spec: Spec, ego: str, actor: str):
                                  xosc.SimulationTimeCondition(float(t_trig), xosc.Rule.greaterOrEqual))
     trigger = xosc.Trigger()
     groups: list[Any] = []
-    if kind == "approach":
+    if kind in ("approach", "near"):
         point = xosc.WorldPosition(float(px), float(py), 0.0, 0.0)
-        groups.append(xosc.EntityTrigger(f"{name}_near", 0, xosc.ConditionEdge.none, xosc.DistanceCondition(
-            float(near), xosc.Rule.lessOrEqual, point, alongroute=False, freespace=False,
-            distance_type=xosc.RelativeDistanceType.euclidianDistance), ego))
+        if near >= 0:  # an imported 'near' without a distance has a negative one
+            groups.append(xosc.EntityTrigger(f"{name}_near", 0, xosc.ConditionEdge.none, xosc.DistanceCondition(
+                float(near), xosc.Rule.lessOrEqual, point, alongroute=False, freespace=False,
+                distance_type=xosc.RelativeDistanceType.euclidianDistance), ego))
         if tta > 0:
             groups.append(xosc.EntityTrigger(f"{name}_tta", 0, xosc.ConditionEdge.none, xosc.TimeToCollisionCondition(
                 float(tta), xosc.Rule.lessOrEqual, alongroute=False, freespace=False, position=point,

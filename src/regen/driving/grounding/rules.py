@@ -27,13 +27,15 @@ from regen.driving.primitives import find, for_actor, get, is_state_only
 from regen.driving.primitives.base import SPEED_CLASSES, Placed
 from regen.driving.world.actors import PARKED_ASSETS, PEDESTRIAN_ASSETS, ActorSpec, RoleChoice
 from regen.driving.world.egos import EGO_SIZE, EgoTemplate, on_junction_map
+from regen.driving.world.imported import imported_entities, with_imported
 from regen.driving.world.locations import LOCATIONS, Location, location_from_text
 from regen.driving.world.maps import geometry
 from regen.driving.world.plan import ActorPlan
 from regen.driving.world.properties import state_schedules
 from regen.driving.world.replay import ego_template
 from regen.driving.world.sensing import sensing_spec
-from regen.driving.world.setting import DrivingParams, DrivingWorld
+from regen.driving.world.setting import DrivingParams, DrivingWorld, ImportedActor
+from regen.driving.world.triggers import Trigger
 from regen.errors import ConfigError, GroundingError, UngroundableError
 
 log = logging.getLogger(__name__)
@@ -387,6 +389,10 @@ def build_scenario(path: CausePath, roles: list[RoleChoice], *, narrative: str, 
         fsm = rule_based_fsm(roles, template)
     else:  # an FSM written elsewhere still shows every cause before the ego's reaction
         fsm, added = with_cause_states(fsm, roles, template)
+    board = DrivingParams.of(path.behavior).imported
+    if board is not None:  # the actors of an imported file stay with what is added around them
+        entities += imported_entities(board)
+        fsm = with_imported(fsm, board, {n for n, _ in template.ego_states()[1]})
     world = DrivingWorld(map=template.map, ego_template=template.id, duration=template.duration, dt=DT,
                          seed=seed, grounder=grounder).as_world()
     params = {k: dict(v) for k, v in sol.params.items()}
@@ -430,6 +436,22 @@ def template_of(scenario: Scenario) -> EgoTemplate:
     return on_junction_map(t, m) if m != t.map else t
 
 
+def imported_plan(a: ImportedActor, r: RoleChoice, db: AssetDatabase) -> ActorPlan:
+    """The plan of an imported actor: its poses replayed, its cause event after its trigger."""
+    spec = db.assets[r.asset]
+    x, y, h, v = a.before[0]
+    cls = "Pedestrian" if db.category_of(r.asset) == "pedestrians" else (
+        "Car" if db.category_of(r.asset) == "vehicles" else "Object")
+    moving = max(p[3] for p in a.before + a.after) > 0.0
+    return ActorPlan(name=a.name, asset=r.asset, kind=spec.kind, cls=cls, x=x, y=y, heading=h,
+                     length=spec.size[0], width=spec.size[1], height=spec.size[2], speed0=v,
+                     scenic_behavior="ReplayPath" if moving else "", replay=list(a.before) if moving else [],
+                     trigger=Trigger.of(a.trigger) if a.trigger is not None and a.after else None,
+                     after=list(a.after), after_relative=a.relative,
+                     states={k: [(0.0, v)] for k, v in r.properties.items()},
+                     comment=f"imported from {a.source}: {a.action} when {a.condition}" if a.event else "imported")
+
+
 def plans_for(scenario: Scenario, db: AssetDatabase | None = None) -> tuple[EgoTemplate, list[ActorPlan]]:
     """Deterministic executable plans of a grounded scenario (the ego first)."""
     db = db or driving_database()
@@ -442,7 +464,12 @@ def plans_for(scenario: Scenario, db: AssetDatabase | None = None) -> tuple[EgoT
                     schedule=list(t.schedule), comment=t.description,
                     scenic_behavior="ReplayPath" if t.replay else "FollowRoute", replay=list(t.replay))
     plans = [ego]
+    board = DrivingParams.of(scenario.behavior).imported
+    imported = {a.name: a for a in board.actors} if board is not None else {}
     for r in roles_of(scenario):
+        if r.name in imported:  # an actor of an imported OpenSCENARIO file: its story replayed
+            plans.append(imported_plan(imported[r.name], r, db))
+            continue
         params = dict(scenario.parameters.get(r.name, {}))
         placed = Placed(actor=_actor(r, db), kind=db.assets[r.asset].kind, params=params, ego=t)
         plan = for_actor(r.asset, r.primitive).plan(placed)

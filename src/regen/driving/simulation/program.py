@@ -65,6 +65,11 @@ def _poses(replay: list[tuple[float, float, float, float]]) -> str:
                            for x, y, h, v in replay) + "]"
 
 
+def _relative_poses(poses: list[tuple[float, float, float, float]]) -> str:
+    """Poses relative to where an actor is (ahead, left [m], turn [rad], speed): as they are."""
+    return "[" + ", ".join(f"({_num(a)}, {_num(b)}, {_num(c)}, {_num(v)})" for a, b, c, v in poses) + "]"
+
+
 def _trigger(trigger: Trigger | None) -> str:
     if trigger is None:
         return "None"
@@ -149,6 +154,9 @@ def write_program(plans: list[ActorPlan], *, map_path: str, dt: float, max_steps
             "trigger": _trigger(p.trigger) if behavior else "",
             "lane_change": _lane_change(p.lane_change),
             "poses": _poses(p.replay) if behavior == "ReplayPath" else "",
+            "after": ("" if behavior != "ReplayPath" or not p.after else
+                      _relative_poses(p.after) if p.after_relative else _poses(p.after)),
+            "relative": "True" if p.after_relative else "False",
             "blueprint": _literal(blueprints[p.asset]) if blueprints and blueprints.get(p.asset) else "",
             "sensing": _sensing(p.sensing) if behavior == "FollowRoute" else "None",
         })

@@ -83,6 +83,10 @@ class ActorPlan:
     comment: str = ""
     # 'ReplayPath': the pose (x, y, heading [rad from +x], speed) at every step, set exactly
     replay: list[tuple[float, float, float, float]] = field(default_factory=list)
+    # an imported cause event (regen.driving.export.importing): after ``trigger`` fires, these poses
+    # from that step on, in map coordinates or (``after_relative``) from where the actor was then
+    after: list[tuple[float, float, float, float]] = field(default_factory=list)
+    after_relative: bool = False
     # the ego reacts to a degraded sensor (regen.driving.world.sensing.sensing_spec), or None
     sensing: tuple | None = None
 

@@ -9,7 +9,7 @@ from pydantic import Field
 
 from regen.core.base import Model
 from regen.core.behavior import BehaviorParams
-from regen.core.scenario import WorldSettings
+from regen.core.scenario import AbstractState, WorldSettings
 
 
 class Waypoint(Model):
@@ -35,6 +35,41 @@ class RecordedEgo(Model):
     samples: list[tuple[float, float, float, float]]
 
 
+class ImportedActor(Model):
+    """An actor of an imported OpenSCENARIO storyboard (``regen import``): its motion replayed
+    exactly, one pose per simulation step, and the cause event that a condition on the ego
+    starts (:mod:`regen.driving.export.importing`)."""
+
+    name: str  # the entity's name in the scenario
+    source: str  # its ScenarioObject name in the file
+    asset: str  # its asset in the driving database
+    kind: str = "agent"  # the scenario entity's kind ('agent' or 'object')
+    properties: dict[str, str] = Field(default_factory=dict)
+    # (x [m], y [m], heading [rad from +x], speed [m/s]) at t = k * dt, from the events that start
+    # with the scenario (what it does while its cause waits)
+    before: list[tuple[float, float, float, float]]
+    # after its cause event starts, at t_fire + k * dt: poses in map coordinates (a trajectory)
+    # or, with ``relative``, (ahead [m], left [m], turn [rad], speed) from where it was then
+    after: list[tuple[float, float, float, float]] = Field(default_factory=list)
+    relative: bool = False
+    trigger: tuple | None = None  # regen.driving.world.triggers.Spec of the cause event, or None
+    event: str = ""  # the cause event's name in the file
+    condition: str = ""  # what starts it, in words
+    action: str = ""  # what it does then, in words
+    cause: AbstractState | None = None  # the state its cause event shows (the FSM's cause stage)
+
+
+class ImportedStoryboard(Model):
+    """What ``regen import`` read: the file, its map, and the actors it replays."""
+
+    source: str  # the .xosc file's name
+    map: str  # the generated map it runs on
+    dt: float
+    duration: float  # [s] the file's stop time
+    actors: list[ImportedActor] = Field(default_factory=list)
+    notes: list[str] = Field(default_factory=list)  # what was approximated, in words
+
+
 class DrivingParams(BehaviorParams):
     """A driving behavior's parameters: the ego template it follows (a route with speed profile,
     e.g. ``stop_abruptly``; default: the one its text describes), an explicit route, or a
@@ -43,6 +78,7 @@ class DrivingParams(BehaviorParams):
     ego_template: str | None = Field(default=None, description="Id of an ego behavior template")
     route: list[Waypoint] | None = Field(default=None, description="Explicit ego route")
     recorded: RecordedEgo | None = Field(default=None, description="A recorded ego trajectory to replay")
+    imported: ImportedStoryboard | None = Field(default=None, description="Actors of an imported OpenSCENARIO file")
 
 
 class DrivingWorld(WorldSettings):
@@ -63,4 +99,4 @@ class DrivingWorld(WorldSettings):
     grounding_notes: str | None = None  # why the rules wrote parts of it, in words
 
 
-__all__ = ["DrivingParams", "DrivingWorld", "RecordedEgo", "Waypoint"]
+__all__ = ["DrivingParams", "DrivingWorld", "ImportedActor", "ImportedStoryboard", "RecordedEgo", "Waypoint"]

@@ -25,6 +25,10 @@ moment, so that any ego sets it off in the same situation:
     which a lane-changing vehicle never switches) it fires at ``late``.
 ``time``
     absolute time ``t_trig`` (an ego that waits: nothing about it tells when to act).
+``near``
+    an imported OpenSCENARIO condition (:mod:`regen.driving.export.importing`): the ego's
+    straight-line distance to the point falls to ``distance`` [m] or below (a negative distance:
+    never), or that distance over its speed to ``tta`` [s] or below (0: not used).
 
 Time warp (:func:`warped_time`): until the trigger fires the actor holds its schedule and
 states as they are just before ``t_trig``; once it fires at ``t_fire`` it runs them at
@@ -56,8 +60,8 @@ LATE = 3.0  # an offset trigger fires at the latest this long after its template
 STEP = 0.1  # the simulation step [s] (10 Hz) at which the template ego's speed is sampled
 SLOWER_FRACTION = 0.5  # an ego_slower trigger fires below this fraction of the ego's event speed
 
-Kind = Literal["approach", "ego_slower", "offset", "time"]
-KINDS: tuple[str, ...] = ("approach", "ego_slower", "offset", "time")
+Kind = Literal["approach", "ego_slower", "offset", "time", "near"]
+KINDS: tuple[str, ...] = ("approach", "ego_slower", "offset", "time", "near")
 # (kind, t_trig [s], px [m], py [m], ux, uy, distance [m], tta [s], below [m/s], offset [m],
 #  rate [m/s], late [s])
 Spec = tuple[str, float, float, float, float, float, float, float, float, float, float, float]
@@ -80,6 +84,13 @@ class Trigger:
     rate: float = 0.0  # how fast that offset changes in the template [m/s] (offset; sign: direction)
     late: float = 0.0  # fires at this time [s] at the latest (offset)
 
+    @classmethod
+    def of(cls, spec: Spec | tuple) -> Trigger:
+        """The trigger of a :meth:`spec` tuple (as an imported actor stores it)."""
+        kind, t, x, y, ux, uy, distance, tta, below, offset, rate, late = spec
+        return cls(kind=kind, t=t, x=x, y=y, ux=ux, uy=uy, distance=distance, tta=tta, below=below,
+                   offset=offset, rate=rate, late=late)
+
     def spec(self) -> Spec:
         """The tuple :func:`trigger_fired` and the Scenic program take."""
         return (self.kind, self.t, self.x, self.y, self.ux, self.uy, self.distance, self.tta, self.below,
@@ -101,6 +112,9 @@ def trigger_fired(spec, t, x, y, ego_speed, ax=None, ay=None):
             return False
         ahead = (ax - x) * ux + (ay - y) * uy  # [m] the actor is ahead of the ego along the frame
         return ahead >= offset - NEAR_TOL if rate >= 0.0 else ahead <= offset + NEAR_TOL
+    if kind == "near":  # an imported condition (OpenSCENARIO): straight-line distance or time to the point
+        d = math.hypot(px - x, py - y)
+        return d <= near + NEAR_TOL or (tta > 0.0 and ego_speed > MIN_SPEED and d / ego_speed <= tta + TTA_TOL)
     dx, dy = px - x, py - y
     along = dx * ux + dy * uy  # [m] the point lies ahead of the ego along the frame
     gap = along + abs(dy * ux - dx * uy)  # [m] to go there: ahead + aside

@@ -1,0 +1,294 @@
+"""``regen import``: an OpenSCENARIO file as a scenario the embedded simulator runs and verifies.
+
+The file is read (:mod:`.xosc_read`) and played kinematically (:mod:`.player`). Then:
+
+- **the ego** (the entity named ``ego``, ``hero`` or ``ego_vehicle``, or with the property
+  ``type = ego_vehicle``) replays its played path exactly, as a recorded trajectory does: its
+  behavior class (stop, slow-down, start, lane change ...) and event time are detected from
+  it (:func:`regen.driving.world.recorded.detect`), which gives the ego's FSM states;
+- **every other actor** replays its motion from the start (the events that start with the
+  scenario) and, when its *cause event* (the one a condition starts) fires, the motion of that
+  event. The condition becomes a trigger on the ego (:mod:`regen.driving.world.triggers`):
+  distance or time to a point -> ``near``; the ego's speed below a value -> ``ego_slower``; the
+  actor's longitudinal offset from the ego -> ``offset``; simulation time -> ``time``. Another
+  ego (``regen test``) sets it off where it is; a condition on other entities starts it at the
+  time it started in the file (said in the notes);
+- **the FSM** comes from the storyboard: the ego's start state, each cause event's state (the
+  actor moves off, brakes, changes lane or moves, as its motion after the condition shows) in
+  the order the file starts them, then the ego's reaction states. A verdict is thus "the
+  storyboard's causes happened, then the ego reacted".
+
+Assets: ``regen_asset`` when the file says it (our exports), else from the category and role
+(an ambulance, a police car, a truck, a bus, a bicycle, a pedestrian, an obstacle); properties
+``regen_<name>`` come back as the entity's properties. Maps: the project's generated maps only
+(the scenario's ``.xodr`` must be one of them, or named after one and absent).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+
+from regen.core.behavior import Behavior
+from regen.core.scenario import FSM, AbstractState, Entity, PredicateCall, Scenario, Stage, StateRef
+from regen.driving.export.player import Played, play
+from regen.driving.export.xosc_read import Condition, EntityDecl, Event, ParsedScenario, read_xosc
+from regen.driving.world.imported import imported_entities, with_imported
+from regen.driving.world.maps import GEOMETRIES, ensure_map
+from regen.driving.world.recorded import CLASSES, Trajectory, detect
+from regen.driving.world.replay import recorded_template
+from regen.driving.world.setting import (
+    DrivingParams,
+    DrivingWorld,
+    ImportedActor,
+    ImportedStoryboard,
+    RecordedEgo,
+)
+from regen.errors import ConfigError
+
+DT = 0.1  # [s] the simulation step
+MAX_DURATION = 60.0  # [s] a file without a stop time runs this long at most
+EGO_NAMES = ("ego", "hero", "ego_vehicle", "egovehicle")
+MOVING = 0.5  # [m/s] an actor slower than this stands
+_VEHICLE_ASSET = {"car": "sedan", "van": "truck", "truck": "truck", "trailer": "truck", "semitrailer": "truck",
+                  "bus": "bus", "motorbike": "motorcycle", "bicycle": "bicycle", "tram": "bus", "train": "bus"}
+_ROLE_ASSET = {"ambulance": "ambulance", "police": "police_car", "fire": "fire_truck"}
+_MISC_ASSET = {"barrier": "barrier", "pole": "traffic_light", "obstacle": "traffic_cone"}
+
+
+def _asset(e: EntityDecl, db) -> str:
+    named = e.properties.get("regen_asset", "")
+    if named in db.assets:
+        return named
+    if e.kind == "pedestrian":
+        return "child" if e.size[2] < 1.4 and "child" in db.assets else "adult"
+    if e.kind == "vehicle":
+        return _ROLE_ASSET.get(e.role) or _VEHICLE_ASSET.get(e.category, "sedan")
+    return _MISC_ASSET.get(e.category, "traffic_cone")
+
+
+def _is_ego(e: EntityDecl) -> bool:
+    return (e.name.lower() in EGO_NAMES or e.properties.get("type") == "ego_vehicle"
+            or e.properties.get("regen_asset") == "ego")
+
+
+def _map(parsed: ParsedScenario) -> tuple[str, str]:
+    """(generated map name, how it was recognised)."""
+    f = parsed.map_file
+    if f is None:
+        raise ConfigError(f"{parsed.path}: no <RoadNetwork><LogicFile>; regen import runs on the project's "
+                          f"generated maps ({', '.join(GEOMETRIES)}): reference one")
+    stem = re.sub(r"-v\d+$", "", f.stem)
+    if f.is_file():
+        text = f.read_bytes()
+        for name in GEOMETRIES:
+            if ensure_map(name).read_bytes() == text:
+                return name, f"{f.name} is the generated map {name}"
+        raise ConfigError(f"{parsed.path}: the map {f.name} is not one of the project's generated maps "
+                          f"({', '.join(GEOMETRIES)}); the embedded simulator runs scenarios on those only")
+    if stem in GEOMETRIES:
+        return stem, f"{f.name} is not beside the file; its name is the generated map {stem}"
+    raise ConfigError(f"{parsed.path}: the map {f} does not exist; reference a generated map "
+                      f"({', '.join(GEOMETRIES)}) by its name")
+
+
+def _spec(ev: Event, ego: str, parsed: ParsedScenario) -> tuple | None:
+    """The trigger the simulation uses for a cause event (None: its conditions are on other
+    entities, or combined in a way no trigger kind states)."""
+    groups = ev.groups
+    flat = [c for g in groups for c in g]
+    if any(len(g) != 1 for g in groups) or not flat:
+        return None
+    kinds = {c.kind for c in flat}
+    h = parsed.start[ego][2]
+    ux, uy = math.cos(h), math.sin(h)
+    on_ego = all(c.entity == ego for c in flat if c.kind in ("distance", "ttc", "speed"))
+    if kinds == {"time"} and len(flat) == 1:
+        return ("time", flat[0].value, 0.0, 0.0, ux, uy, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    if kinds <= {"distance", "ttc"} and on_ego and len({c.point for c in flat}) == 1 and len(flat) <= 2:
+        if any(c.rule not in ("lessThan", "lessOrEqual") for c in flat):
+            return None
+        near = next((c.value for c in flat if c.kind == "distance"), -1.0)
+        tta = next((c.value for c in flat if c.kind == "ttc"), 0.0)
+        px, py = flat[0].point  # type: ignore[misc]
+        return ("near", 0.0, px, py, ux, uy, near, tta, 0.0, 0.0, 0.0, 0.0)
+    if kinds == {"speed"} and on_ego and len(flat) == 1 and flat[0].rule in ("lessThan", "lessOrEqual"):
+        return ("ego_slower", 0.0, 0.0, 0.0, ux, uy, 0.0, 0.0, flat[0].value, 0.0, 0.0, 0.0)
+    offsets = [c for c in flat if c.kind == "offset"]
+    times = [c for c in flat if c.kind == "time"]
+    if (len(offsets) == 1 and len(flat) == len(offsets) + len(times) <= 2 and offsets[0].entity == ev.actor
+            and offsets[0].ref == ego and offsets[0].rule != "equalTo"):
+        rate = 1.0 if offsets[0].rule in ("greaterThan", "greaterOrEqual") else -1.0
+        late = times[0].value if times else 1e9
+        return ("offset", 0.0, 0.0, 0.0, ux, uy, 0.0, 0.0, 0.0, offsets[0].value, rate, late)
+    return None
+
+
+def _words(c: Condition, ego: str) -> str:
+    rule = {"lessThan": "less than", "lessOrEqual": "at most", "greaterThan": "more than",
+            "greaterOrEqual": "at least", "equalTo": "exactly"}[c.rule]
+    who = "the ego" if c.entity == ego else c.entity
+    if c.kind == "time":
+        return f"the time is {rule} {c.value:g} s"
+    if c.kind == "distance":
+        return f"{who} is {rule} {c.value:g} m from ({c.point[0]:.1f}, {c.point[1]:.1f})"  # type: ignore[index]
+    if c.kind == "ttc":
+        return f"{who} is {rule} {c.value:g} s from ({c.point[0]:.1f}, {c.point[1]:.1f})"  # type: ignore[index]
+    if c.kind == "speed":
+        return f"{who}'s speed is {rule} {c.value:g} m/s"
+    return f"{who} is {rule} {c.value:g} m ahead of {'the ego' if c.ref == ego else c.ref}"
+
+
+def condition_words(ev: Event, ego: str) -> str:
+    return " or ".join(" and ".join(_words(c, ego) for c in g) for g in ev.groups) or "the scenario starts"
+
+
+def _relative(poses: list, at: tuple[float, float, float, float]) -> list[tuple[float, float, float, float]]:
+    x0, y0, h0, _ = at
+    c, s = math.cos(h0), math.sin(h0)
+    return [(round((x - x0) * c + (y - y0) * s, 4), round(-(x - x0) * s + (y - y0) * c, 4),
+             round(h - h0, 5), round(v, 4)) for x, y, h, v in poses]
+
+
+def _rounded(poses: list) -> list[tuple[float, float, float, float]]:
+    return [(round(x, 4), round(y, 4), round(h, 5), round(v, 4)) for x, y, h, v in poses]
+
+
+def _cause_state(actor: ImportedActor, kind: str) -> tuple[str, list[PredicateCall]]:
+    """The state a cause event's motion shows (from its poses after the condition fired)."""
+    poses = actor.after if actor.relative else _relative(actor.after, actor.after[0]) if actor.after else []
+    if not poses:
+        return "acting", [PredicateCall(name="slower_than", args=[actor.name], params={"max_speed": 1e6})]
+    v = np.array([p[3] for p in poses])
+    side = max(abs(p[1]) for p in poses)
+    if kind == "vehicle" and side > 1.5:
+        return "changing_lane", [PredicateCall(name="changing_lane", args=[actor.name])]
+    if v[0] < MOVING and v.max() >= 1.0:
+        return "moving_off", [PredicateCall(name="slower_than", args=[actor.name], params={"max_speed": MOVING},
+                                            negate=True)]
+    if v.min() < v[0] - 2.0:
+        return "braking", [PredicateCall(name="braking", args=[actor.name], params={"min_decel": 1.0})]
+    return "moving", [PredicateCall(name="slower_than", args=[actor.name], params={"max_speed": MOVING}, negate=True)]
+
+
+def _action_words(state: str) -> str:
+    return {"changing_lane": "changes lanes", "moving_off": "starts moving", "braking": "brakes",
+            "moving": "moves", "acting": "acts"}[state]
+
+
+def import_xosc(path: str | Path, *, dt: float = DT) -> Scenario:
+    """The scenario of an OpenSCENARIO file (see the module docstring); ConfigError with one
+    line for everything it cannot read or run."""
+    from regen.driving.assets import database
+
+    parsed = read_xosc(path)
+    db = database()
+    egos = [n for n, e in parsed.entities.items() if _is_ego(e)]
+    if len(egos) != 1:
+        raise ConfigError(f"{parsed.path}: {'no' if not egos else len(egos)} ego entities; name exactly one "
+                          f"entity {' or '.join(EGO_NAMES[:3])} (or give it the property type = ego_vehicle)")
+    ego = egos[0]
+    map_name, map_words = _map(parsed)
+    duration = min(parsed.stop_time or MAX_DURATION, MAX_DURATION)
+    notes = [map_words]
+    if parsed.stop_time is None:
+        notes.append(f"no stop time: it runs {MAX_DURATION:g} s")
+    causes: dict[str, Event] = {}
+    for ev in parsed.events:
+        if ev.actor == ego or ev.at_start:
+            continue
+        if ev.actor in causes:
+            raise ConfigError(f"{parsed.path}: {ev.actor!r} has two events started by conditions "
+                              f"({causes[ev.actor].name!r}, {ev.name!r}); regen import reads one cause event per actor")
+        causes[ev.actor] = ev
+    specs = {ev.name: _spec(ev, ego, parsed) for ev in causes.values()}
+    played = play(parsed, ego=ego, dt=dt, duration=duration, specs=specs)
+    for ev in causes.values():
+        if specs[ev.name] is None:
+            k = played.started.get(ev.name)
+            if k is None:
+                raise ConfigError(f"{parsed.path}: the event {ev.name!r} of {ev.actor!r} never starts in the file's "
+                                  f"own run ({condition_words(ev, ego)}); regen import needs it to start once")
+            specs[ev.name] = ("time", round(k * dt, 4), 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+            notes.append(f"{ev.actor}'s event {ev.name!r} starts on {condition_words(ev, ego)}, which is not a "
+                         f"condition on the ego alone: it starts at {k * dt:.1f} s, when it started in the file")
+    rec = _recorded_ego(parsed, played, ego, map_name, dt)
+    start_only = {ev.name for ev in parsed.events if ev.at_start}
+    base = play(parsed, ego=ego, dt=dt, duration=duration, only=start_only)
+    actors: list[ImportedActor] = []
+    texts: list[str] = []
+    for name, decl in parsed.entities.items():
+        if name == ego:
+            continue
+        asset = _asset(decl, db)
+        ev = causes.get(name)
+        props = {k[len("regen_"):]: v for k, v in decl.properties.items()
+                 if k.startswith("regen_") and k != "regen_asset" and k[len("regen_"):] in db.properties}
+        actor = ImportedActor(name=name, source=decl.name, asset=asset, properties=props,
+                              before=_rounded(base.poses[name]))
+        if ev is not None:
+            k = played.started.get(ev.name)
+            if k is None:
+                notes.append(f"{name}'s event {ev.name!r} never started in the file's own run")
+            else:
+                after = played.poses[name][k:]
+                trajectory = any(a.kind == "trajectory" for a in ev.actions)
+                actor.after = _rounded(after) if trajectory else _relative(after, after[0])
+                actor.relative = not trajectory
+            actor.trigger = specs[ev.name]
+            actor.event, actor.condition = ev.name, condition_words(ev, ego)
+        moving = max(p[3] for p in actor.before + actor.after) >= MOVING
+        actor.kind = "agent" if moving or decl.kind != "misc" else "object"
+        if ev is not None and actor.after:
+            state, calls = _cause_state(actor, decl.kind)
+            actor.action = _action_words(state)
+            actor.cause = AbstractState(name=state, actor=name, all_of=calls, cause=True)
+            texts.append(f"the {asset.replace('_', ' ')} {actor.action} when {actor.condition}")
+        actors.append(actor)
+    board = ImportedStoryboard(source=Path(path).name, map=map_name, dt=dt, duration=duration, actors=actors,
+                               notes=notes)
+    behavior_text = CLASSES[rec.detected][1]
+    behavior = Behavior(text=behavior_text, domain="driving",
+                        params=DrivingParams(recorded=rec, imported=board).model_dump(exclude_none=True))
+    t = recorded_template(rec)
+    entities = [Entity(name="ego", asset="ego", kind="robot", behavior=t.id,
+                       behavior_params={"text": behavior_text}), *imported_entities(board)]
+    fsm = with_imported(_ego_fsm(t), board, {n for n, _ in t.ego_states()[1]})
+    cause = " and ".join(texts) if texts else f"the storyboard of {Path(path).name}"
+    world = DrivingWorld(map=map_name, ego_template=t.id, duration=duration, dt=dt, grounder="imported")
+    return Scenario(id=f"import-{re.sub(r'[^A-Za-z0-9_-]', '_', Path(path).stem)[:40]}", domain="driving",
+                    behavior=behavior, causal_graph=[cause, behavior_text],
+                    narrative=f"{cause[0].upper()}{cause[1:]}, so {behavior_text}.", entities=entities, fsm=fsm,
+                    world=world.as_world(), fsm_source="rules")
+
+
+def _recorded_ego(parsed: ParsedScenario, played: Played, ego: str, map_name: str, dt: float) -> RecordedEgo:
+    poses = played.poses[ego]
+    t = np.arange(len(poses)) * dt
+    arr = np.array(poses, float)
+    traj = Trajectory(t=t, x=arr[:, 0], y=arr[:, 1], heading=arr[:, 2], speed=arr[:, 3], source=parsed.path.name)
+    det = detect(traj, map_name=map_name)
+    if CLASSES[det.behavior][0] is None:
+        raise ConfigError(f"{parsed.path}: the ego's story shows '{det.text}', which no ego template verifies; "
+                          "regen import verifies a stop, a slow-down, a start, a lane change, a stop after a turn "
+                          "or a stop in an intersection")
+    return RecordedEgo(source=parsed.path.name, frame="map", map=map_name, detected=det.behavior,
+                       event_time=round(det.event_time, 3), placement=f"the ego of {parsed.path.name}",
+                       evidence=list(det.evidence), dt=dt, samples=_rounded(poses))
+
+
+def _ego_fsm(t) -> FSM:
+    """The ego's own stages: its start state, a turn before its reaction, its reaction."""
+    (ename, ecalls), events = t.ego_states()
+    states = [AbstractState(name=ename, actor="ego", all_of=ecalls)]
+    stages = [Stage(conditions=[StateRef(actor="ego", state=ename)])]
+    for name, calls in [*t.prelude(), *events]:
+        states.append(AbstractState(name=name, actor="ego", all_of=calls))
+        stages.append(Stage(conditions=[StateRef(actor="ego", state=name)]))
+    return FSM(states=states, stages=stages)
+
+
+__all__ = ["import_xosc"]

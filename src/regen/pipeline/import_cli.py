@@ -1,0 +1,51 @@
+"""``regen import FILE --out RUN``: a scenario file another tool wrote (OpenSCENARIO for driving),
+simulated and verified with the main job's stages (a thin layer over
+:func:`regen.pipeline.imports.import_file`). Mounted by :mod:`regen.cli`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+from rich.console import Console
+from rich.markup import escape
+
+console = Console(highlight=False, soft_wrap=True)
+err_console = Console(stderr=True, highlight=False, soft_wrap=True)
+
+
+def import_command(
+    file: str = typer.Argument(..., help="The scenario file, e.g. scenario.xosc (its .xodr map beside it)"),
+    out: str = typer.Option(..., "--out", "-o", help="Run folder (rerun the same command to resume)"),
+    domain: str = typer.Option(None, "--domain", "-d", help="The domain that reads it (default: by its suffix)"),
+    no_pictures: bool = typer.Option(False, "--no-pictures", help="Skip GIFs and key frames"),
+    fresh: bool = typer.Option(False, "--fresh", help="Discard an earlier run in --out instead of resuming it"),
+) -> None:
+    """Import a scenario file: read its storyboard, derive the FSM, simulate and verify it."""
+    from regen.pipeline.imports import import_file
+    from regen.runfolder import out_folder
+
+    out_dir = out_folder(out)
+    with console.status(f"importing {escape(Path(file).name)}") as status:
+        def on_event(ev: dict) -> None:
+            if ev["event"] == "simulating":
+                status.update(f"simulating and verifying {escape(str(ev['name']))}")
+
+        try:
+            result = import_file(Path(file), out_dir, domain=domain, pictures=not no_pictures, fresh=fresh,
+                                 on_event=on_event)
+        except KeyboardInterrupt:
+            err_console.print(f"[yellow]interrupted; run the same command again to resume ({escape(out)})[/]")
+            raise typer.Exit(130) from None
+    scenario = result.outcomes[0].scenario()
+    if scenario is not None:
+        console.print(f"[bold]{escape(scenario.narrative)}[/]")
+        notes = scenario.behavior.params.get("imported", {}).get("notes", [])
+        for note in notes:
+            console.print(f"  note: {escape(str(note))}")
+    for o in result.outcomes:
+        mark = f"[green]{o.verdict.status}[/]" if o.verdict.feasible else f"[red]{o.verdict.status}[/]"
+        console.print(f"{escape(o.folder)}: {mark}: {escape(o.verdict.reason)}")
+    report = out_dir / "report.html"
+    if report.exists():
+        console.print(f"report: {report}")
