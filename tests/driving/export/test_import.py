@@ -147,3 +147,18 @@ def test_augment_adds_a_cause_around_the_imported_storyboard(tmp_path, monkeypat
     assert assets["walker"] == "adult" and "bicycle" in assets.values()  # kept, and added around it
     walker = _trace(Path(added["folder"])).actors["walker"]
     assert np.hypot(walker.x[-1] - walker.x[0], walker.y[-1] - walker.y[0]) > 5.0  # it still crosses
+
+
+def test_an_exported_light_comes_back_switching_at_the_same_steps(tmp_path):
+    from driving_chains import chain
+
+    from regen.pipeline.stages import run_path
+
+    light = chain("stop_abruptly", "the traffic light ahead turns red", ("traffic_light", {"light_state": ["turns_red"]}))
+    first = run_path(light, tmp_path / "first", pictures=False)
+    assert first.verdict.feasible
+    back = _import(tmp_path / "first" / "scenario.xosc", tmp_path / "back")
+    assert back.verdict.status == first.verdict.status, back.verdict.reason
+    a = _trace(first.path).actors["traffic_light1"].states["light_state"]
+    b = _trace(back.path).actors["traffic_light1"].states["light_state"]
+    assert a == b and a[0] == "green" and a[-1] == "red"

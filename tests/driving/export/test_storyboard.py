@@ -1,4 +1,5 @@
-"""The OpenSCENARIO storyboard keeps the scenario's triggers: read back as parsed XML, a crossing
+"""The OpenSCENARIO storyboard keeps the scenario's triggers: read back as parsed XML, a light that
+turns red switches the map's signal on the ego's approach (yellow, then red after the yellow time), a crossing
 child starts on the ego's distance (or time to reach) to its crossing point, a car cutting in
 starts its lane change at a longitudinal offset from the ego (or at its latest time), each with
 the ego as the triggering entity and its recorded path timed from the event's start; the flag
@@ -10,7 +11,7 @@ import json
 import xml.etree.ElementTree as ET
 
 import pytest
-from driving_chains import FEASIBLE
+from driving_chains import FEASIBLE, chain
 
 pytest.importorskip("scenic")
 
@@ -76,3 +77,34 @@ def test_without_the_egos_story_the_ego_is_placed_but_not_driven(tmp_path):
     assert any(p.get("entityRef") == "ego" for p in root.iter("Private"))
     actors = [ref.get("entityRef") for g in root.iter("ManeuverGroup") for ref in g.findall("Actors/EntityRef")]
     assert "ego" not in actors and "child1" in actors
+
+
+LIGHT = chain("stop_abruptly", "the traffic light ahead turns red", ("traffic_light", {"light_state": ["turns_red"]}))
+
+
+def test_a_light_that_turns_red_switches_the_maps_signal_on_the_egos_approach(tmp_path):
+    from regen.driving.export.signals import signals_of
+    from regen.driving.world.properties import YELLOW_TIME
+
+    root, sc = _export(LIGHT, tmp_path / "light")
+    (xodr,) = (tmp_path / "light" / "x").glob("*.xodr")
+    signals = signals_of(xodr.read_text())
+    (sid,) = [k for k, (name, _, _) in signals.items() if name == "traffic_light1"]
+    _, sx, sy = signals[sid]
+    light = next(p for p in root.iter("Private") if p.get("entityRef") == "traffic_light1")
+    pos = light.find(".//TeleportAction/Position/WorldPosition")
+    assert abs(float(pos.get("x")) - sx) < 0.01 and abs(float(pos.get("y")) - sy) < 0.01  # the signal is the light
+    (first,) = [a for a in root.iter("TrafficSignalStateAction") if a in list(root.find("Storyboard/Init").iter())]
+    assert (first.get("name"), first.get("state")) == (sid, "green")  # green at the start
+    changes = []
+    for ev in root.iter("Event"):
+        action = ev.find(".//TrafficSignalStateAction")
+        if action is None:
+            continue
+        assert action.get("name") == sid
+        (cond, *_) = ev.find("StartTrigger").iter("Condition")
+        entity = cond.find("ByEntityCondition")
+        assert entity.find("TriggeringEntities/EntityRef").get("entityRef") == "ego"  # on the ego's approach
+        assert entity.find("EntityCondition/DistanceCondition") is not None
+        changes.append((action.get("state"), float(cond.get("delay"))))
+    assert changes == [("yellow", 0.0), ("red", YELLOW_TIME)]

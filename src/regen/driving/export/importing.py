@@ -28,13 +28,15 @@ from __future__ import annotations
 
 import math
 import re
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
 
 from regen.core.behavior import Behavior
 from regen.core.scenario import FSM, AbstractState, Entity, PredicateCall, Scenario, Stage, StateRef
-from regen.driving.export.player import Played, play
+from regen.driving.export.player import Played, delay_of, play
+from regen.driving.export.signals import signals_of, without_signals
 from regen.driving.export.xosc_read import Condition, EntityDecl, Event, ParsedScenario, read_xosc
 from regen.driving.world.imported import imported_entities, with_imported
 from regen.driving.world.maps import GEOMETRIES, ensure_map
@@ -75,22 +77,27 @@ def _is_ego(e: EntityDecl) -> bool:
             or e.properties.get("regen_asset") == "ego")
 
 
-def _map(parsed: ParsedScenario) -> tuple[str, str]:
-    """(generated map name, how it was recognised)."""
+def _map(parsed: ParsedScenario) -> tuple[str, str, dict[str, tuple[str, float, float]]]:
+    """(generated map name, how it was recognised, its signals: id -> (name, x, y))."""
     f = parsed.map_file
     if f is None:
         raise ConfigError(f"{parsed.path}: no <RoadNetwork><LogicFile>; regen import runs on the project's "
                           f"generated maps ({', '.join(GEOMETRIES)}): reference one")
     stem = re.sub(r"-v\d+$", "", f.stem)
     if f.is_file():
-        text = f.read_bytes()
+        raw = f.read_text(encoding="utf-8", errors="replace")
+        try:
+            text, signals = without_signals(raw), signals_of(raw)
+        except ET.ParseError as exc:
+            raise ConfigError(f"{parsed.path}: the map {f.name} is not readable XML ({exc})") from None
         for name in GEOMETRIES:
-            if ensure_map(name).read_bytes() == text:
-                return name, f"{f.name} is the generated map {name}"
+            if without_signals(ensure_map(name).read_text(encoding="utf-8")) == text:
+                extra = f" with {len(signals)} signal(s)" if signals else ""
+                return name, f"{f.name} is the generated map {name}{extra}", signals
         raise ConfigError(f"{parsed.path}: the map {f.name} is not one of the project's generated maps "
                           f"({', '.join(GEOMETRIES)}); the embedded simulator runs scenarios on those only")
     if stem in GEOMETRIES:
-        return stem, f"{f.name} is not beside the file; its name is the generated map {stem}"
+        return stem, f"{f.name} is not beside the file; its name is the generated map {stem}", {}
     raise ConfigError(f"{parsed.path}: the map {f} does not exist; reference a generated map "
                       f"({', '.join(GEOMETRIES)}) by its name")
 
@@ -132,14 +139,14 @@ def _words(c: Condition, ego: str) -> str:
             "greaterOrEqual": "at least", "equalTo": "exactly"}[c.rule]
     who = "the ego" if c.entity == ego else c.entity
     if c.kind == "time":
-        return f"the time is {rule} {c.value:g} s"
+        return f"the time is {rule} {round(c.value, 1):g} s"
     if c.kind == "distance":
-        return f"{who} is {rule} {c.value:g} m from ({c.point[0]:.1f}, {c.point[1]:.1f})"  # type: ignore[index]
+        return f"{who} is {rule} {round(c.value, 1):g} m from ({c.point[0]:.1f}, {c.point[1]:.1f})"  # type: ignore[index]
     if c.kind == "ttc":
-        return f"{who} is {rule} {c.value:g} s from ({c.point[0]:.1f}, {c.point[1]:.1f})"  # type: ignore[index]
+        return f"{who} is {rule} {round(c.value, 1):g} s from ({c.point[0]:.1f}, {c.point[1]:.1f})"  # type: ignore[index]
     if c.kind == "speed":
-        return f"{who}'s speed is {rule} {c.value:g} m/s"
-    return f"{who} is {rule} {c.value:g} m ahead of {'the ego' if c.ref == ego else c.ref}"
+        return f"{who}'s speed is {rule} {round(c.value, 1):g} m/s"
+    return f"{who} is {rule} {round(c.value, 1):g} m ahead of {'the ego' if c.ref == ego else c.ref}"
 
 
 def condition_words(ev: Event, ego: str) -> str:
@@ -191,14 +198,14 @@ def import_xosc(path: str | Path, *, dt: float = DT) -> Scenario:
         raise ConfigError(f"{parsed.path}: {'no' if not egos else len(egos)} ego entities; name exactly one "
                           f"entity {' or '.join(EGO_NAMES[:3])} (or give it the property type = ego_vehicle)")
     ego = egos[0]
-    map_name, map_words = _map(parsed)
+    map_name, map_words, map_signals = _map(parsed)
     duration = min(parsed.stop_time or MAX_DURATION, MAX_DURATION)
     notes = [map_words]
     if parsed.stop_time is None:
         notes.append(f"no stop time: it runs {MAX_DURATION:g} s")
     causes: dict[str, Event] = {}
     for ev in parsed.events:
-        if ev.actor == ego or ev.at_start:
+        if ev.actor == ego or ev.at_start or all(a.kind == "signal" for a in ev.actions):
             continue
         if ev.actor in causes:
             raise ConfigError(f"{parsed.path}: {ev.actor!r} has two events started by conditions "
@@ -248,6 +255,7 @@ def import_xosc(path: str | Path, *, dt: float = DT) -> Scenario:
             actor.cause = AbstractState(name=state, actor=name, all_of=calls, cause=True)
             texts.append(f"the {asset.replace('_', ' ')} {actor.action} when {actor.condition}")
         actors.append(actor)
+    texts = _lights(parsed, played, map_signals, actors, ego, notes) + texts
     board = ImportedStoryboard(source=Path(path).name, map=map_name, dt=dt, duration=duration, actors=actors,
                                notes=notes)
     behavior_text = CLASSES[rec.detected][1]
@@ -263,6 +271,55 @@ def import_xosc(path: str | Path, *, dt: float = DT) -> Scenario:
                     behavior=behavior, causal_graph=[cause, behavior_text],
                     narrative=f"{cause[0].upper()}{cause[1:]}, so {behavior_text}.", entities=entities, fsm=fsm,
                     world=world.as_world(), fsm_source="rules")
+
+
+def _lights(parsed: ParsedScenario, played: Played, map_signals: dict[str, tuple[str, float, float]],
+            actors: list[ImportedActor], ego: str, notes: list[str]) -> list[str]:
+    """Give each traffic signal the storyboard switches a light: the entity the map's signal is
+    named after (the exporter's), else a traffic light where the map has the signal. Its state
+    changes run on the trigger of their events' common condition (each change its delay after),
+    or at the times they happened in the file's own run. Returns the cause texts."""
+    by_signal: dict[str, list[tuple[Event, str]]] = {}
+    for ev in parsed.events:
+        for a in ev.actions:
+            if a.kind == "signal":
+                by_signal.setdefault(a.signal, []).append((ev, a.state))
+    by_name = {a.name: a for a in actors}
+    texts = []
+    for sid in sorted(set(by_signal) | set(parsed.signals)):
+        evs = by_signal.get(sid, [])
+        name, x, y = map_signals.get(sid, ("", 0.0, 0.0))
+        actor = by_name.get(name)
+        if actor is None:
+            if sid not in map_signals:
+                raise ConfigError(f"{parsed.path}: the storyboard switches the signal {sid!r}, which the map "
+                                  "does not have (OpenDRIVE <signal id>)")
+            actor = ImportedActor(name=f"signal_{sid}", source=f"signal {sid} of the map", asset="traffic_light",
+                                  kind="object", before=[(round(x, 4), round(y, 4), 0.0, 0.0)])
+            actors.append(actor)
+        init = parsed.signals.get(sid) or (evs[0][1] if evs else "off")
+        keys = {tuple(tuple((c.kind, c.value, c.rule, c.entity, c.ref, c.point) for c in g) for g in ev.groups)
+                for ev, _ in evs}
+        spec = _spec(evs[0][0], ego, parsed) if len(keys) == 1 else None
+        if spec is not None:
+            changes = sorted((round(spec[1] + delay_of(ev), 4), state) for ev, state in evs)
+            actor.states = {"light_state": [(-1.0, init), *changes]}
+        else:
+            actor.states = {"light_state": [(0.0, init)] + [(round(k * played.dt, 4), st)
+                                                            for k, st in played.signals.get(sid, [])]}
+            if evs:
+                notes.append(f"the signal {sid}'s changes start on different conditions, or conditions not on "
+                             "the ego alone: they happen at the times they happened in the file")
+        actor.trigger = spec
+        if not evs:
+            continue
+        final = actor.states["light_state"][-1][1]
+        actor.event, actor.condition = evs[0][0].name, condition_words(evs[0][0], ego)
+        actor.action = f"turns {final}"
+        actor.cause = AbstractState(name=f"shows_{final}", actor=actor.name, cause=True, all_of=[
+            PredicateCall(name="light_is", args=[actor.name], params={"value": final})])
+        texts.append(f"the traffic light {actor.action} when {actor.condition}")
+    return texts
 
 
 def _recorded_ego(parsed: ParsedScenario, played: Played, ego: str, map_name: str, dt: float) -> RecordedEgo:

@@ -26,9 +26,10 @@ import numpy as np
 from regen.core.io import atomic_write_bytes
 from regen.core.scenario import Scenario
 from regen.core.trace import ActorTrack, Trace
-from regen.driving.export.storyboard import fire_index, triggered_group
+from regen.driving.export.signals import Light, with_signals
+from regen.driving.export.storyboard import as_recorded, fire_index, signal_group, triggered_group
+from regen.driving.world.plan import ActorPlan
 from regen.driving.world.setting import DrivingWorld
-from regen.driving.world.triggers import Spec
 from regen.errors import ConfigError, DependencyNotInstalled, RegenError
 
 log = logging.getLogger(__name__)
@@ -86,6 +87,8 @@ def _unique_names(names: list[str]) -> dict[str, str]:
 
 def _kind(asset: str, db) -> str | None:
     """'vehicle', 'pedestrian', 'misc', or None for things that are not placed (sensors)."""
+    if asset == "ego":  # the robot under test is a car (not in the database of causes)
+        return "vehicle"
     cat = db.category_of(asset) if db is not None else None
     spec = db.assets.get(asset) if db is not None else None
     # a static object with doors is a parked vehicle; simulators should show a car
@@ -126,6 +129,8 @@ def _entity(xosc, name: str, track: ActorTrack, kind: str, db, props: dict[str, 
     else:
         category = getattr(xosc.MiscObjectCategory, _MISC_CATEGORY.get(track.asset, "obstacle"))
         obj = xosc.MiscObject(name, _MASS["misc"], category, bbox)
+    if track.asset == "ego":  # how CARLA ScenarioRunner finds the ego among the vehicles
+        obj.add_property("type", "ego_vehicle")
     obj.add_property("regen_asset", safe_name(track.asset))
     for key, value in props.items():
         obj.add_property(f"regen_{safe_name(key)}", _safe_text(str(value), 200))
@@ -209,8 +214,8 @@ def _map_file(scenario: Scenario, trace: Trace) -> Path | None:
     return None
 
 
-def _triggers(scenario: Scenario) -> dict[str, Spec]:
-    """Actor -> the trigger that starts its cause action (empty when the scenario cannot be planned)."""
+def _plans(scenario: Scenario) -> dict[str, ActorPlan]:
+    """Actor -> its plan (empty when the scenario cannot be planned)."""
     try:
         from regen.driving.grounding.rules import plans_for
 
@@ -218,7 +223,21 @@ def _triggers(scenario: Scenario) -> dict[str, Spec]:
     except (RegenError, KeyError, ValueError) as exc:
         log.warning("scenario %s: no triggers for the OpenSCENARIO export (%s); actors replay on time", scenario.id, exc)
         return {}
-    return {p.name: p.trigger.spec() for p in plans if p.trigger is not None and p.kind != "sensor"}
+    return {p.name: p for p in plans}
+
+
+def _lights(plans: dict[str, ActorPlan], trace: Trace, names: dict[str, str]) -> list[Light]:
+    """The traffic lights of the scenario whose light state is scheduled, where they stand,
+    facing the ego (a light of the scenario is the one the ego sees)."""
+    ego = trace.actors.get("ego")
+    facing = float(_headings(ego)[0]) + math.pi if ego is not None and ego.x else None
+    out = []
+    for name, p in plans.items():
+        track = trace.actors.get(name)
+        if "light_state" in p.states and track is not None and track.x and name in names:
+            out.append(Light(name=names[name], x=float(track.x[0]), y=float(track.y[0]),
+                             heading=p.heading if facing is None else facing))
+    return out
 
 
 def export_openscenario(scenario: Scenario, trace: Trace, out_dir: Path, *,
@@ -248,10 +267,18 @@ def export_openscenario(scenario: Scenario, trace: Trace, out_dir: Path, *,
     out_dir.mkdir(parents=True, exist_ok=True)
     files: dict[str, Path] = {}
 
+    names = _unique_names(list(trace.actors))
+    plans = _plans(scenario)
+    triggers = {n: p.trigger.spec() for n, p in plans.items() if p.trigger is not None and p.kind != "sensor"}
+    lights = _lights(plans, trace, names)
+    signal_ids: dict[str, str] = {}
     xodr = _map_file(scenario, trace)
     if xodr is not None:
         files["xodr"] = out_dir / f"{safe_name(xodr.stem)}.xodr"
-        if files["xodr"].resolve() != xodr.resolve():
+        if lights:  # the map's copy holds a signal per light, for the storyboard to switch
+            text, signal_ids = with_signals(xodr.read_text(encoding="utf-8"), lights)
+            atomic_write_bytes(files["xodr"], text.encode("utf-8"))
+        elif files["xodr"].resolve() != xodr.resolve():
             shutil.copyfile(xodr, files["xodr"])
         road = xosc.RoadNetwork(roadfile=files["xodr"].name)
     else:
@@ -259,7 +286,6 @@ def export_openscenario(scenario: Scenario, trace: Trace, out_dir: Path, *,
                     scenario.id)
         road = xosc.RoadNetwork()
 
-    names = _unique_names(list(trace.actors))
     props = {e.name: e.properties for e in scenario.entities}
     standing = _standing(scenario)
     times = np.asarray(trace.times, float)
@@ -269,7 +295,18 @@ def export_openscenario(scenario: Scenario, trace: Trace, out_dir: Path, *,
     act = xosc.Act(f"{safe_name(scenario.id)}_replay", xosc.ValueTrigger(
         "act_start", 0, xosc.ConditionEdge.none, xosc.SimulationTimeCondition(0, xosc.Rule.greaterOrEqual)))
     moving = 0
-    triggers = _triggers(scenario)
+    for orig, plan in plans.items():  # lights: their state now, their changes as the storyboard's events
+        signal = signal_ids.get(names.get(orig, ""))
+        if signal is None:
+            continue
+        sched = plan.states["light_state"]
+        init.add_global_action(xosc.TrafficSignalStateAction(signal, str(sched[0][1])))
+        changes = [(float(t), str(v)) for t, v in sched[1:]]
+        if changes:
+            spec = triggers.get(orig)
+            spec = as_recorded(spec, trace, fire_index(spec, trace, orig)) if spec is not None else None
+            act.add_maneuver_group(signal_group(xosc, names[orig], signal, changes, spec, names.get("ego", "ego")))
+            moving += 1
     for orig, track in trace.actors.items():
         kind = _kind(track.asset, db)
         if kind is None or not track.x:
@@ -292,7 +329,8 @@ def export_openscenario(scenario: Scenario, trace: Trace, out_dir: Path, *,
                 where = idx.index(k_fire)
                 before = float(np.hypot(np.diff(x[: k_fire + 1]), np.diff(y[: k_fire + 1])).sum())
                 act.add_maneuver_group(triggered_group(
-                    xosc, name, [_position(xosc, track, heading, i) for i in idx], times[idx], where, spec,
+                    xosc, name, [_position(xosc, track, heading, i) for i in idx], times[idx], where,
+                    as_recorded(spec, trace, k_fire),
                     names.get("ego", "ego"), moves_before=before >= MOVING))
             else:
                 act.add_maneuver_group(_trajectory_event(xosc, name, track, heading, times, sample_dt))

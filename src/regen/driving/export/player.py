@@ -81,6 +81,8 @@ class Mover:
         return (self.x, self.y, self.h, self.v)
 
     def start(self, action: Action, t: float) -> None:
+        if action.kind == "signal":  # switches a signal of the map, moves nothing
+            return
         if action.kind == "trajectory":
             self.m = _Motion(traj=action, t_traj=t)
         elif action.kind == "speed":
@@ -168,6 +170,13 @@ class Played:
     dt: float
     poses: dict[str, list[Pose]]
     started: dict[str, int] = field(default_factory=dict)  # event name -> step it started at
+    held: dict[str, int] = field(default_factory=dict)  # event name -> step its condition held at
+    signals: dict[str, list[tuple[int, str]]] = field(default_factory=dict)  # signal id -> [(step, state)]
+
+
+def delay_of(ev: Event) -> float:
+    """[s] from when an event's condition holds to when it starts (its conditions' longest delay)."""
+    return max((c.delay for g in ev.groups for c in g), default=0.0)
 
 
 def _measure(c: Condition, movers: dict[str, Mover], t: float, frame: tuple[float, float]) -> bool:
@@ -214,11 +223,15 @@ def play(parsed: ParsedScenario, *, ego: str, dt: float, duration: float,
     for k in range(steps + 1):
         t = k * dt
         for ev in list(pending):
-            if fires(ev, movers, t, frame, specs.get(ev.name), ego):
+            if ev.name not in out.held and fires(ev, movers, t, frame, specs.get(ev.name), ego):
+                out.held[ev.name] = k
+            if ev.name in out.held and t >= out.held[ev.name] * dt + delay_of(ev) - TOL:
                 pending.remove(ev)
                 out.started[ev.name] = k
                 for a in ev.actions:
                     movers[ev.actor].start(a, t)
+                    if a.kind == "signal":
+                        out.signals.setdefault(a.signal, []).append((k, a.state))
         if k == steps:
             break
         for n, m in movers.items():
@@ -227,4 +240,4 @@ def play(parsed: ParsedScenario, *, ego: str, dt: float, duration: float,
     return out
 
 
-__all__ = ["Mover", "Played", "Pose", "fires", "play"]
+__all__ = ["Mover", "Played", "Pose", "delay_of", "fires", "play"]

@@ -10,8 +10,9 @@ on, with the ego as the triggering entity:
 trigger kind    start condition
 ==============  =====================================================================================
 time            SimulationTimeCondition: time >= the trigger time
-approach, near DistanceCondition (ego within the trigger distance of the trigger point) OR
-                TimeToCollisionCondition (ego's time to reach that point <= the trigger's), two groups
+approach, near DistanceCondition (ego within the straight-line distance of the trigger point at
+                which the recorded ego set it off) OR TimeToCollisionCondition (that distance
+                over its speed then), two groups
 ego_slower      SpeedCondition: the ego slower than the trigger speed
 offset          RelativeDistanceCondition (the actor as far ahead of the ego, longitudinally, as in
                 the template) OR SimulationTimeCondition (the trigger's latest time)
@@ -48,33 +49,49 @@ def fire_index(spec: Spec, trace: Trace, actor: str | None = None) -> int | None
     return None
 
 
-def start_trigger(xosc: Any, name: str, spec: Spec, ego: str, actor: str):
-    """The storyboard trigger that starts ``actor``'s cause action (see the module docstring)."""
+def as_recorded(spec: Spec, trace: Trace, k_fire: int | None) -> Spec:
+    """``spec`` with an approach measured as OpenSCENARIO measures it: the straight-line distance
+    (and that distance over the ego's speed) at which the recorded ego set it off, so a player
+    fires it at the same step for the same ego (the project measures along the road plus aside,
+    which a DistanceCondition cannot state)."""
+    ego = trace.actors.get("ego")
+    if spec[0] != "approach" or k_fire is None or ego is None:
+        return spec
+    d = float(np.hypot(spec[2] - ego.x[k_fire], spec[3] - ego.y[k_fire]))
+    v = float(ego.speed[k_fire])
+    tta = round(d / v, 4) if v > 0.5 and spec[7] > 0 else 0.0
+    return (spec[0], spec[1], spec[2], spec[3], spec[4], spec[5], round(d, 4), tta, *spec[8:])
+
+
+def start_trigger(xosc: Any, name: str, spec: Spec, ego: str, actor: str, delay: float = 0.0):
+    """The storyboard trigger that starts ``actor``'s cause action (see the module docstring),
+    ``delay`` [s] after its condition holds."""
     kind, t_trig, px, py, _ux, _uy, near, tta, below, offset, rate, late = spec
+    delay = round(max(0.0, float(delay)), 4)
     if kind == "time":
         return xosc.ValueTrigger(f"{name}_time", 0, xosc.ConditionEdge.none,
-                                 xosc.SimulationTimeCondition(float(t_trig), xosc.Rule.greaterOrEqual))
+                                 xosc.SimulationTimeCondition(round(float(t_trig) + delay, 4), xosc.Rule.greaterOrEqual))
     trigger = xosc.Trigger()
     groups: list[Any] = []
     if kind in ("approach", "near"):
         point = xosc.WorldPosition(float(px), float(py), 0.0, 0.0)
         if near >= 0:  # an imported 'near' without a distance has a negative one
-            groups.append(xosc.EntityTrigger(f"{name}_near", 0, xosc.ConditionEdge.none, xosc.DistanceCondition(
+            groups.append(xosc.EntityTrigger(f"{name}_near", delay, xosc.ConditionEdge.none, xosc.DistanceCondition(
                 float(near), xosc.Rule.lessOrEqual, point, alongroute=False, freespace=False,
                 distance_type=xosc.RelativeDistanceType.euclidianDistance), ego))
         if tta > 0:
-            groups.append(xosc.EntityTrigger(f"{name}_tta", 0, xosc.ConditionEdge.none, xosc.TimeToCollisionCondition(
+            groups.append(xosc.EntityTrigger(f"{name}_tta", delay, xosc.ConditionEdge.none, xosc.TimeToCollisionCondition(
                 float(tta), xosc.Rule.lessOrEqual, alongroute=False, freespace=False, position=point,
                 distance_type=xosc.RelativeDistanceType.euclidianDistance), ego))
     elif kind == "ego_slower":
-        groups.append(xosc.EntityTrigger(f"{name}_slower", 0, xosc.ConditionEdge.none,
+        groups.append(xosc.EntityTrigger(f"{name}_slower", delay, xosc.ConditionEdge.none,
                                          xosc.SpeedCondition(float(below), xosc.Rule.lessThan), ego))
     elif kind == "offset":
         rule = xosc.Rule.greaterOrEqual if rate >= 0 else xosc.Rule.lessOrEqual
-        groups.append(xosc.EntityTrigger(f"{name}_offset", 0, xosc.ConditionEdge.none, xosc.RelativeDistanceCondition(
+        groups.append(xosc.EntityTrigger(f"{name}_offset", delay, xosc.ConditionEdge.none, xosc.RelativeDistanceCondition(
             float(offset), rule, xosc.RelativeDistanceType.longitudinal, ego, alongroute=False, freespace=False),
             actor))
-        groups.append(xosc.ValueTrigger(f"{name}_latest", 0, xosc.ConditionEdge.none,
+        groups.append(xosc.ValueTrigger(f"{name}_latest", delay, xosc.ConditionEdge.none,
                                         xosc.SimulationTimeCondition(float(late), xosc.Rule.greaterOrEqual)))
     else:
         raise ValueError(f"unknown trigger kind {kind!r}")
@@ -116,4 +133,26 @@ def triggered_group(xosc: Any, name: str, positions: list[Any], times: np.ndarra
     return group
 
 
-__all__ = ["fire_index", "start_trigger", "triggered_group"]
+def signal_group(xosc: Any, name: str, signal: str, changes: list[tuple[float, str]], spec: Spec | None,
+                 ego: str):
+    """The maneuver group of a traffic light: one ``TrafficSignalStateAction`` on the map's signal
+    ``signal`` per state change ``(t [s], state)`` after the start, each started by the light's
+    trigger (its condition on the ego) with the change's delay after the trigger's time, or at
+    its time when the light has no trigger."""
+    maneuver = xosc.Maneuver(f"{name}_maneuver")
+    for i, (t, state) in enumerate(changes):
+        event = xosc.Event(f"{name}_turns_{state}_{i}", xosc.Priority.parallel)
+        event.add_action(f"{name}_{state}_{i}", xosc.TrafficSignalStateAction(signal, state))
+        if spec is None:
+            event.add_trigger(xosc.ValueTrigger(f"{name}_{state}_{i}_time", 0, xosc.ConditionEdge.none,
+                                                xosc.SimulationTimeCondition(round(float(t), 4), xosc.Rule.greaterOrEqual)))
+        else:
+            event.add_trigger(start_trigger(xosc, f"{name}_{state}_{i}", spec, ego, name, delay=t - float(spec[1])))
+        maneuver.add_event(event)
+    group = xosc.ManeuverGroup(f"{name}_group")
+    group.add_actor(name)
+    group.add_maneuver(maneuver)
+    return group
+
+
+__all__ = ["as_recorded", "fire_index", "signal_group", "start_trigger", "triggered_group"]

@@ -12,7 +12,8 @@ element and where it is, never dropped silently):
   ``Polyline`` of timed ``WorldPosition`` vertices (absolute or relative timing), ``SpeedAction``
   to an absolute target speed and ``LaneChangeAction`` to a relative target lane (step, linear,
   cubic or sinusoidal dynamics over time, distance or rate);
-- start conditions: ``SimulationTimeCondition``, ``DistanceCondition`` and
+- ``TrafficSignalStateAction`` (in ``Init`` and in events): a signal of the map, by its id;
+- start conditions (with their delays): ``SimulationTimeCondition``, ``DistanceCondition`` and
   ``TimeToCollisionCondition`` to a ``WorldPosition``, ``SpeedCondition``,
   ``RelativeDistanceCondition`` (longitudinal); condition groups are OR-ed, conditions within a
   group AND-ed;
@@ -43,11 +44,13 @@ class Condition:
     entity: str = ""  # the triggering entity (entity conditions)
     ref: str = ""  # the reference entity (offset)
     point: tuple[float, float] | None = None  # the position (distance, ttc)
+    delay: float = 0.0  # [s] after the condition holds
 
 
 @dataclass(frozen=True)
 class Action:
-    """One motion action. ``kind``: 'trajectory', 'speed' or 'lane_change'."""
+    """One action. ``kind``: 'trajectory', 'speed', 'lane_change' (motion) or 'signal' (a traffic
+    signal of the map switches to ``state``)."""
 
     kind: str
     # trajectory: (t [s], x [m], y [m], heading [rad]) vertices; relative: times from the event's start
@@ -57,6 +60,8 @@ class Action:
     shape: str = "step"  # step, linear, cubic, sinusoidal
     dimension: str = "time"  # time [s], distance [m], rate [m/s^2]
     amount: float = 0.0  # the dynamics' value in its dimension
+    signal: str = ""  # the signal's id in the map (signal)
+    state: str = ""  # its new state (signal)
 
 
 @dataclass
@@ -94,6 +99,7 @@ class ParsedScenario:
     speed: dict[str, float]  # name -> start speed [m/s]
     events: list[Event]
     stop_time: float | None
+    signals: dict[str, str] = field(default_factory=dict)  # signal id -> its state at the start
 
 
 class _Unsupported(list):
@@ -208,10 +214,27 @@ def _private(pa: ET.Element, where: str, bad: _Unsupported) -> Action | None:
 _RULES = ("lessThan", "lessOrEqual", "greaterThan", "greaterOrEqual", "equalTo")
 
 
-def _condition(c: ET.Element, where: str, bad: _Unsupported) -> Condition | None:
-    if float(c.get("delay", "0") or 0) != 0.0:
-        bad.add(c, f"{where} (a delay)")
+def _signal(ga: ET.Element, where: str) -> Action | None:
+    """A ``TrafficSignalStateAction`` inside a ``GlobalAction`` (None: another global action)."""
+    tss = ga.find("InfrastructureAction/TrafficSignalAction/TrafficSignalStateAction")
+    if tss is None:
         return None
+    if not tss.get("name") or not tss.get("state"):
+        raise ConfigError(f"{where}: a <TrafficSignalStateAction> needs a name (the signal's id) and a state")
+    return Action(kind="signal", signal=tss.get("name", ""), state=tss.get("state", ""))
+
+
+def _condition(c: ET.Element, where: str, bad: _Unsupported) -> Condition | None:
+    got = _condition_body(c, where, bad)
+    delay = _f(c, "delay", where) if c.get("delay") else 0.0
+    if got is None or delay == 0.0:
+        return got
+    if delay < 0:
+        raise ConfigError(f"{where}: a negative condition delay ({delay:g} s)")
+    return Condition(got.kind, got.value, got.rule, got.entity, got.ref, got.point, delay)
+
+
+def _condition_body(c: ET.Element, where: str, bad: _Unsupported) -> Condition | None:
     if (st := c.find("ByValueCondition/SimulationTimeCondition")) is not None:
         return Condition("time", _f(st, "value", where), st.get("rule", "greaterOrEqual"))
     be = c.find("ByEntityCondition")
@@ -304,8 +327,13 @@ def read_xosc(path: str | Path) -> ParsedScenario:
                 speed[name] = _speed_action(sa, where).target
             else:
                 bad.add(pa[0] if len(pa) else pa, where)
+    signals: dict[str, str] = {}
     for ga in board.findall("Init/Actions/GlobalAction"):
-        bad.add(ga[0] if len(ga) else ga, "Init")
+        sig = _signal(ga, "Init")
+        if sig is None:
+            bad.add(ga[0] if len(ga) else ga, "Init")
+        else:
+            signals[sig.signal] = sig.state
     events: list[Event] = []
     for story in board.findall("Story"):
         for act in story.findall("Act"):
@@ -317,6 +345,10 @@ def read_xosc(path: str | Path) -> ParsedScenario:
                     actions = []
                     for a in ev.findall("Action"):
                         pa = a.find("PrivateAction")
+                        ga = a.find("GlobalAction")
+                        if ga is not None and (sig := _signal(ga, where)) is not None:
+                            actions.append(sig)
+                            continue
                         if pa is None:
                             bad.add(a[0] if len(a) else a, where)
                             continue
@@ -344,7 +376,8 @@ def read_xosc(path: str | Path) -> ParsedScenario:
         raise ConfigError(f"{path}: no start position for {', '.join(missing)}; give each entity a "
                           "TeleportAction to a WorldPosition in <Init>")
     return ParsedScenario(path=path, description=header.get("description", ""), map_file=map_file,
-                          entities=entities, start=start, speed=speed, events=events, stop_time=stop)
+                          entities=entities, start=start, speed=speed, events=events, stop_time=stop,
+                          signals=signals)
 
 
 __all__ = ["Action", "Condition", "EntityDecl", "Event", "ParsedScenario", "read_xosc"]

@@ -446,9 +446,9 @@ def imported_plan(a: ImportedActor, r: RoleChoice, db: AssetDatabase) -> ActorPl
     return ActorPlan(name=a.name, asset=r.asset, kind=spec.kind, cls=cls, x=x, y=y, heading=h,
                      length=spec.size[0], width=spec.size[1], height=spec.size[2], speed0=v,
                      scenic_behavior="ReplayPath" if moving else "", replay=list(a.before) if moving else [],
-                     trigger=Trigger.of(a.trigger) if a.trigger is not None and a.after else None,
+                     trigger=Trigger.of(a.trigger) if a.trigger is not None and (a.after or a.states) else None,
                      after=list(a.after), after_relative=a.relative,
-                     states={k: [(0.0, v)] for k, v in r.properties.items()},
+                     states={**{k: [(0.0, v)] for k, v in r.properties.items()}, **a.states},
                      comment=f"imported from {a.source}: {a.action} when {a.condition}" if a.event else "imported")
 
 

@@ -52,6 +52,8 @@ class ImportedActor(Model):
     # or, with ``relative``, (ahead [m], left [m], turn [rad], speed) from where it was then
     after: list[tuple[float, float, float, float]] = Field(default_factory=list)
     relative: bool = False
+    # property -> [(t_from [s], value)] on the trigger's clock (a traffic light's state changes)
+    states: dict[str, list[tuple[float, str]]] = Field(default_factory=dict)
     trigger: tuple | None = None  # regen.driving.world.triggers.Spec of the cause event, or None
     event: str = ""  # the cause event's name in the file
     condition: str = ""  # what starts it, in words
