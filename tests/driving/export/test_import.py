@@ -1,7 +1,7 @@
 """``regen import``: an OpenSCENARIO file becomes a scenario the embedded simulator runs and
 verifies. A hand-written file (tests/data/xosc, written from the standard, schema-valid) replays
 with its pedestrian starting on the ego's distance; files the exporter wrote come back to the
-same verdict with the same trajectories (within the exporter's 0.5 s vertex spacing); what the
+same verdict with the same trajectories (the exporter writes a vertex every step); what the
 importer does not read is named, never dropped; ``regen augment`` runs on an imported scene."""
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from regen.errors import ConfigError  # noqa: E402
 
 DATA = Path(__file__).parents[2] / "data" / "xosc"
 HAND = DATA / "pedestrian_crossing.xosc"
-TOLERANCE = 0.3  # [m] round trip: the exporter writes a trajectory vertex every 0.5 s
+TOLERANCE = 0.01  # [m] round trip: the exporter writes a trajectory vertex every simulation step
 
 
 def _import(file: Path, out: Path):
@@ -73,7 +73,8 @@ def test_the_hand_written_file_replays_the_pedestrian_starting_on_the_egos_dista
     assert ego.speed[-1] < 0.1
 
 
-@pytest.mark.parametrize("key,i", [("stop_abruptly", 0), ("slow_down", 2)])  # an approach; an offset trigger
+# an approach; an offset trigger; a wrong-way car that fires while the ego brakes; a door that opens
+@pytest.mark.parametrize("key,i", [("stop_abruptly", 0), ("slow_down", 2), ("stop_abruptly", 6), ("stop_abruptly", 3)])
 def test_an_exported_file_imports_back_to_the_same_verdict_and_trajectories(chain_result, tmp_path, key, i):
     first = chain_result(key, i)
     assert first.verdict.feasible
@@ -81,8 +82,13 @@ def test_an_exported_file_imports_back_to_the_same_verdict_and_trajectories(chai
     shutil.copytree(first.path, copy)
     back = _import(copy / "scenario.xosc", tmp_path / "back")
     assert back.verdict.status == first.verdict.status, back.verdict.reason
-    errors = _errors(_trace(first.path), _trace(back.path))
+    a, b = _trace(first.path), _trace(back.path)
+    errors = _errors(a, b)
     assert max(errors.values()) < TOLERANCE, errors
+    for name, track in a.actors.items():  # doors, sirens, lights switch at the same steps
+        for key in ("door", "siren", "light_state"):
+            if key in track.states:
+                assert b.actors[name].states[key] == track.states[key], (name, key)
 
 
 def test_what_it_does_not_read_is_named(tmp_path):

@@ -72,6 +72,18 @@ def _asset(e: EntityDecl, db) -> str:
     return _MISC_ASSET.get(e.category, "traffic_cone")
 
 
+def _scenario_name(name: str, taken: set[str]) -> str:
+    """The file's entity name as a scenario entity's: letters, digits and underscores, not the
+    ego's, unique."""
+    base = re.sub(r"[^A-Za-z0-9_]", "_", name).strip("_") or "actor"
+    if base[0].isdigit() or base.lower() == "ego":
+        base = f"actor_{base}"
+    out, k = base, 2
+    while out in taken:
+        out, k = f"{base}_{k}", k + 1
+    return out
+
+
 def _is_ego(e: EntityDecl) -> bool:
     return (e.name.lower() in EGO_NAMES or e.properties.get("type") == "ego_vehicle"
             or e.properties.get("regen_asset") == "ego")
@@ -205,7 +217,7 @@ def import_xosc(path: str | Path, *, dt: float = DT) -> Scenario:
         notes.append(f"no stop time: it runs {MAX_DURATION:g} s")
     causes: dict[str, Event] = {}
     for ev in parsed.events:
-        if ev.actor == ego or ev.at_start or all(a.kind == "signal" for a in ev.actions):
+        if ev.actor == ego or ev.at_start or all(a.kind in ("signal", "state") for a in ev.actions):
             continue
         if ev.actor in causes:
             raise ConfigError(f"{parsed.path}: {ev.actor!r} has two events started by conditions "
@@ -234,8 +246,8 @@ def import_xosc(path: str | Path, *, dt: float = DT) -> Scenario:
         ev = causes.get(name)
         props = {k[len("regen_"):]: v for k, v in decl.properties.items()
                  if k.startswith("regen_") and k != "regen_asset" and k[len("regen_"):] in db.properties}
-        actor = ImportedActor(name=name, source=decl.name, asset=asset, properties=props,
-                              before=_rounded(base.poses[name]))
+        actor = ImportedActor(name=_scenario_name(name, {a.name for a in actors}), source=name, asset=asset,
+                              properties=props, before=_rounded(base.poses[name]))
         if ev is not None:
             k = played.started.get(ev.name)
             if k is None:
@@ -252,10 +264,10 @@ def import_xosc(path: str | Path, *, dt: float = DT) -> Scenario:
         if ev is not None and actor.after:
             state, calls = _cause_state(actor, decl.kind)
             actor.action = _action_words(state)
-            actor.cause = AbstractState(name=state, actor=name, all_of=calls, cause=True)
+            actor.cause = AbstractState(name=state, actor=actor.name, all_of=calls, cause=True)
             texts.append(f"the {asset.replace('_', ' ')} {actor.action} when {actor.condition}")
         actors.append(actor)
-    texts = _lights(parsed, played, map_signals, actors, ego, notes) + texts
+    texts = _state_events(parsed, played, map_signals, actors, ego, notes) + texts
     board = ImportedStoryboard(source=Path(path).name, map=map_name, dt=dt, duration=duration, actors=actors,
                                notes=notes)
     behavior_text = CLASSES[rec.detected][1]
@@ -273,52 +285,82 @@ def import_xosc(path: str | Path, *, dt: float = DT) -> Scenario:
                     world=world.as_world(), fsm_source="rules")
 
 
-def _lights(parsed: ParsedScenario, played: Played, map_signals: dict[str, tuple[str, float, float]],
-            actors: list[ImportedActor], ego: str, notes: list[str]) -> list[str]:
-    """Give each traffic signal the storyboard switches a light: the entity the map's signal is
-    named after (the exporter's), else a traffic light where the map has the signal. Its state
-    changes run on the trigger of their events' common condition (each change its delay after),
-    or at the times they happened in the file's own run. Returns the cause texts."""
-    by_signal: dict[str, list[tuple[Event, str]]] = {}
+_STATE_PREDICATES = {("door", "open"): "door_open", ("siren", "on"): "siren_on", ("hazard_lights", "on"): "hazard_lights_on"}
+
+
+def _state_events(parsed: ParsedScenario, played: Played, map_signals: dict[str, tuple[str, float, float]],
+                  actors: list[ImportedActor], ego: str, notes: list[str]) -> list[str]:
+    """The states the storyboard switches: a traffic signal of the map (its light: the entity
+    the signal is named after, as the exporter writes it, else a traffic light where the map
+    has the signal) and an actor's door, siren or hazard lights. Each property's changes run on
+    the trigger of their events' common condition (each change its delay after), else at the
+    times they happened in the file's own run. Returns the cause texts."""
+    changes: dict[tuple[str, str], list[tuple[Event, str]]] = {}  # (actor source or signal id, key)
     for ev in parsed.events:
         for a in ev.actions:
             if a.kind == "signal":
-                by_signal.setdefault(a.signal, []).append((ev, a.state))
-    by_name = {a.name: a for a in actors}
+                changes.setdefault((f"signal:{a.signal}", "light_state"), []).append((ev, a.state))
+            elif a.kind == "state" and (a.entity or ev.actor) != ego:
+                changes.setdefault((a.entity or ev.actor, a.key), []).append((ev, a.state))
+    for sid in parsed.signals:
+        changes.setdefault((f"signal:{sid}", "light_state"), [])
+    by_source = {a.source: a for a in actors}
+    for owner, states in parsed.states.items():  # a state set at the start and never changed
+        for key, value in states.items():
+            if (owner, key) not in changes and owner in by_source:
+                by_source[owner].properties[key] = value
     texts = []
-    for sid in sorted(set(by_signal) | set(parsed.signals)):
-        evs = by_signal.get(sid, [])
-        name, x, y = map_signals.get(sid, ("", 0.0, 0.0))
-        actor = by_name.get(name)
-        if actor is None:
-            if sid not in map_signals:
-                raise ConfigError(f"{parsed.path}: the storyboard switches the signal {sid!r}, which the map "
-                                  "does not have (OpenDRIVE <signal id>)")
-            actor = ImportedActor(name=f"signal_{sid}", source=f"signal {sid} of the map", asset="traffic_light",
-                                  kind="object", before=[(round(x, 4), round(y, 4), 0.0, 0.0)])
-            actors.append(actor)
-        init = parsed.signals.get(sid) or (evs[0][1] if evs else "off")
+    for (owner, key), evs in sorted(changes.items()):
+        if owner.startswith("signal:"):
+            sid = owner[len("signal:"):]
+            name, x, y = map_signals.get(sid, ("", 0.0, 0.0))
+            actor = by_source.get(name)
+            if actor is None:
+                if sid not in map_signals:
+                    raise ConfigError(f"{parsed.path}: the storyboard switches the signal {sid!r}, which the map "
+                                      "does not have (OpenDRIVE <signal id>)")
+                actor = ImportedActor(name=f"signal_{sid}", source=f"signal {sid} of the map", asset="traffic_light",
+                                      kind="object", before=[(round(x, 4), round(y, 4), 0.0, 0.0)])
+                actors.append(actor)
+                by_source[actor.source] = actor
+            init = parsed.signals.get(sid) or (evs[0][1] if evs else "off")
+            played_key = sid
+        else:
+            actor = by_source.get(owner)
+            if actor is None:
+                raise ConfigError(f"{parsed.path}: the storyboard sets {key} of {owner!r}, which is not an entity")
+            sid = ""
+            init = parsed.states.get(owner, {}).get(key) or actor.properties.get(key) or (
+                {"door": "closed"}.get(key, "off"))
+            played_key = f"{owner}.{key}"
         keys = {tuple(tuple((c.kind, c.value, c.rule, c.entity, c.ref, c.point) for c in g) for g in ev.groups)
                 for ev, _ in evs}
         spec = _spec(evs[0][0], ego, parsed) if len(keys) == 1 else None
         if spec is not None:
-            changes = sorted((round(spec[1] + delay_of(ev), 4), state) for ev, state in evs)
-            actor.states = {"light_state": [(-1.0, init), *changes]}
+            sched = [(-1.0, init), *sorted((round(spec[1] + delay_of(ev), 4), st) for ev, st in evs)]
         else:
-            actor.states = {"light_state": [(0.0, init)] + [(round(k * played.dt, 4), st)
-                                                            for k, st in played.signals.get(sid, [])]}
+            sched = [(0.0, init)] + [(round(k * played.dt, 4), st) for k, st in played.signals.get(played_key, [])]
             if evs:
-                notes.append(f"the signal {sid}'s changes start on different conditions, or conditions not on "
+                notes.append(f"{actor.name}'s {key} changes start on different conditions, or on conditions not on "
                              "the ego alone: they happen at the times they happened in the file")
-        actor.trigger = spec
-        if not evs:
+        actor.states[key] = sched
+        if not evs or actor.cause is not None:  # a motion's cause state comes first
             continue
-        final = actor.states["light_state"][-1][1]
+        actor.trigger = spec
+        final = sched[-1][1]
+        predicate = "light_is" if key == "light_state" else _STATE_PREDICATES.get((key, final))
+        if predicate is None:
+            continue
         actor.event, actor.condition = evs[0][0].name, condition_words(evs[0][0], ego)
-        actor.action = f"turns {final}"
-        actor.cause = AbstractState(name=f"shows_{final}", actor=actor.name, cause=True, all_of=[
-            PredicateCall(name="light_is", args=[actor.name], params={"value": final})])
-        texts.append(f"the traffic light {actor.action} when {actor.condition}")
+        words = {"light_state": f"turns {final}", "door": "opens its door", "siren": "switches its siren on",
+                 "hazard_lights": "switches its hazard lights on"}[key]
+        actor.action = words
+        actor.cause = AbstractState(name=f"shows_{final}" if key == "light_state" else predicate, actor=actor.name,
+                                    cause=True, all_of=[PredicateCall(name=predicate, args=[actor.name],
+                                                                      params={"value": final} if key == "light_state"
+                                                                      else {})])
+        thing = "traffic light" if key == "light_state" else actor.asset.replace("_", " ")
+        texts.append(f"the {thing} {words} when {actor.condition}")
     return texts
 
 

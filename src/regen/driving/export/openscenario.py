@@ -26,10 +26,12 @@ import numpy as np
 from regen.core.io import atomic_write_bytes
 from regen.core.scenario import Scenario
 from regen.core.trace import ActorTrack, Trace
+from regen.driving.export.appearance import APPEARANCE, appearance_action
 from regen.driving.export.signals import Light, with_signals
-from regen.driving.export.storyboard import as_recorded, fire_index, signal_group, triggered_group
+from regen.driving.export.storyboard import as_recorded, fire_index, state_group, triggered_group
 from regen.driving.world.plan import ActorPlan
 from regen.driving.world.setting import DrivingWorld
+from regen.driving.world.triggers import Spec
 from regen.errors import ConfigError, DependencyNotInstalled, RegenError
 
 log = logging.getLogger(__name__)
@@ -37,7 +39,7 @@ log = logging.getLogger(__name__)
 __all__ = ["export_openscenario", "validate_xosc", "safe_name"]
 
 OSC_MINOR = 2  # OpenSCENARIO 1.2: widely read (esmini, ScenarioRunner) and has vehicle roles
-SAMPLE_DT = 0.5  # [s] between trajectory vertices
+SAMPLE_DT = 0.1  # [s] between trajectory vertices: every simulation step (a player replays the run exactly)
 MOVING = 0.2  # [m] an actor whose path is shorter than this gets no trajectory
 
 # asset -> OpenSCENARIO vehicle category; other vehicles are cars
@@ -226,6 +228,37 @@ def _plans(scenario: Scenario) -> dict[str, ActorPlan]:
     return {p.name: p for p in plans}
 
 
+def _state_changes(xosc, plans: dict[str, ActorPlan], trace: Trace, names: dict[str, str],
+                   signal_ids: dict[str, str], init, db) -> list[tuple[str, list, Spec | None]]:
+    """Every actor's states that the standard has actions for (:mod:`.appearance`): the first
+    into ``init``, the changes as (actor, [(t, label, action)], its trigger as recorded)."""
+    out = []
+    for orig, plan in plans.items():
+        name = names.get(orig)
+        if name is None or orig not in trace.actors:
+            continue
+        changes: list[tuple[float, str, object]] = []
+        signal = signal_ids.get(name)
+        if signal is not None and "light_state" in plan.states:
+            sched = plan.states["light_state"]
+            init.add_global_action(xosc.TrafficSignalStateAction(signal, str(sched[0][1])))
+            changes += [(float(t), f"turns_{v}", xosc.TrafficSignalStateAction(signal, str(v))) for t, v in sched[1:]]
+        if _kind(trace.actors[orig].asset, db) == "vehicle":
+            for key in APPEARANCE:
+                sched = plan.states.get(key)
+                first = appearance_action(xosc, key, str(sched[0][1]), name) if sched else None
+                if first is None:
+                    continue
+                init.add_user_defined_action(first)
+                changes += [(float(t), f"{key}_{v}", a) for t, v in sched[1:]
+                            if (a := appearance_action(xosc, key, str(v), name)) is not None]
+        if changes:
+            spec = plan.trigger.spec() if plan.trigger is not None else None
+            spec = as_recorded(spec, trace, fire_index(spec, trace, orig)) if spec is not None else None
+            out.append((orig, sorted(changes, key=lambda c: c[0]), spec))
+    return out
+
+
 def _lights(plans: dict[str, ActorPlan], trace: Trace, names: dict[str, str]) -> list[Light]:
     """The traffic lights of the scenario whose light state is scheduled, where they stand,
     facing the ego (a light of the scenario is the one the ego sees)."""
@@ -295,18 +328,9 @@ def export_openscenario(scenario: Scenario, trace: Trace, out_dir: Path, *,
     act = xosc.Act(f"{safe_name(scenario.id)}_replay", xosc.ValueTrigger(
         "act_start", 0, xosc.ConditionEdge.none, xosc.SimulationTimeCondition(0, xosc.Rule.greaterOrEqual)))
     moving = 0
-    for orig, plan in plans.items():  # lights: their state now, their changes as the storyboard's events
-        signal = signal_ids.get(names.get(orig, ""))
-        if signal is None:
-            continue
-        sched = plan.states["light_state"]
-        init.add_global_action(xosc.TrafficSignalStateAction(signal, str(sched[0][1])))
-        changes = [(float(t), str(v)) for t, v in sched[1:]]
-        if changes:
-            spec = triggers.get(orig)
-            spec = as_recorded(spec, trace, fire_index(spec, trace, orig)) if spec is not None else None
-            act.add_maneuver_group(signal_group(xosc, names[orig], signal, changes, spec, names.get("ego", "ego")))
-            moving += 1
+    for orig, changes, spec in _state_changes(xosc, plans, trace, names, signal_ids, init, db):
+        act.add_maneuver_group(state_group(xosc, names[orig], changes, spec, names.get("ego", "ego")))
+        moving += 1
     for orig, track in trace.actors.items():
         kind = _kind(track.asset, db)
         if kind is None or not track.x:

@@ -81,7 +81,7 @@ class Mover:
         return (self.x, self.y, self.h, self.v)
 
     def start(self, action: Action, t: float) -> None:
-        if action.kind == "signal":  # switches a signal of the map, moves nothing
+        if action.kind in ("signal", "state"):  # switches a signal or a state, moves nothing
             return
         if action.kind == "trajectory":
             self.m = _Motion(traj=action, t_traj=t)
@@ -171,7 +171,8 @@ class Played:
     poses: dict[str, list[Pose]]
     started: dict[str, int] = field(default_factory=dict)  # event name -> step it started at
     held: dict[str, int] = field(default_factory=dict)  # event name -> step its condition held at
-    signals: dict[str, list[tuple[int, str]]] = field(default_factory=dict)  # signal id -> [(step, state)]
+    # signal id (or 'entity.property') -> [(step, state)]
+    signals: dict[str, list[tuple[int, str]]] = field(default_factory=dict)
 
 
 def delay_of(ev: Event) -> float:
@@ -232,6 +233,8 @@ def play(parsed: ParsedScenario, *, ego: str, dt: float, duration: float,
                     movers[ev.actor].start(a, t)
                     if a.kind == "signal":
                         out.signals.setdefault(a.signal, []).append((k, a.state))
+                    elif a.kind == "state":
+                        out.signals.setdefault(f"{a.entity or ev.actor}.{a.key}", []).append((k, a.state))
         if k == steps:
             break
         for n, m in movers.items():

@@ -57,10 +57,14 @@ def as_recorded(spec: Spec, trace: Trace, k_fire: int | None) -> Spec:
     ego = trace.actors.get("ego")
     if spec[0] != "approach" or k_fire is None or ego is None:
         return spec
-    d = float(np.hypot(spec[2] - ego.x[k_fire], spec[3] - ego.y[k_fire]))
-    v = float(ego.speed[k_fire])
-    tta = round(d / v, 4) if v > 0.5 and spec[7] > 0 else 0.0
-    return (spec[0], spec[1], spec[2], spec[3], spec[4], spec[5], round(d, 4), tta, *spec[8:])
+    d = np.hypot(spec[2] - np.asarray(ego.x[: k_fire + 1]), spec[3] - np.asarray(ego.y[: k_fire + 1]))
+    v = np.asarray(ego.speed[: k_fire + 1], float)
+    tta = np.where(v > 0.5, d / np.maximum(v, 1e-9), np.inf)
+    # the values at the fire, but below what any earlier step had: neither condition holds sooner
+    near = min(float(d[-1]), float(d[:-1].min()) - 1e-3) if k_fire else float(d[-1])
+    t_a = min(float(tta[-1]), float(tta[:-1].min()) - 1e-3) if k_fire else float(tta[-1])
+    t_a = round(t_a, 4) if spec[7] > 0 and np.isfinite(t_a) and t_a > 0 else 0.0
+    return (spec[0], spec[1], spec[2], spec[3], spec[4], spec[5], round(max(near, 0.0), 4), t_a, *spec[8:])
 
 
 def start_trigger(xosc: Any, name: str, spec: Spec, ego: str, actor: str, delay: float = 0.0):
@@ -133,26 +137,25 @@ def triggered_group(xosc: Any, name: str, positions: list[Any], times: np.ndarra
     return group
 
 
-def signal_group(xosc: Any, name: str, signal: str, changes: list[tuple[float, str]], spec: Spec | None,
-                 ego: str):
-    """The maneuver group of a traffic light: one ``TrafficSignalStateAction`` on the map's signal
-    ``signal`` per state change ``(t [s], state)`` after the start, each started by the light's
-    trigger (its condition on the ego) with the change's delay after the trigger's time, or at
-    its time when the light has no trigger."""
-    maneuver = xosc.Maneuver(f"{name}_maneuver")
-    for i, (t, state) in enumerate(changes):
-        event = xosc.Event(f"{name}_turns_{state}_{i}", xosc.Priority.parallel)
-        event.add_action(f"{name}_{state}_{i}", xosc.TrafficSignalStateAction(signal, state))
+def state_group(xosc: Any, name: str, changes: list[tuple[float, str, Any]], spec: Spec | None, ego: str):
+    """The maneuver group of an actor's state changes (a traffic light's signal, a door, a
+    siren): one event per change ``(t [s], label, action)`` after the start, each started by the
+    actor's trigger (its condition on the ego) with the change's delay after the trigger's time,
+    or at its time when the actor has no trigger."""
+    maneuver = xosc.Maneuver(f"{name}_states")
+    for i, (t, label, action) in enumerate(changes):
+        event = xosc.Event(f"{name}_{label}_{i}", xosc.Priority.parallel)
+        event.add_action(f"{name}_{label}_{i}_action", action)
         if spec is None:
-            event.add_trigger(xosc.ValueTrigger(f"{name}_{state}_{i}_time", 0, xosc.ConditionEdge.none,
+            event.add_trigger(xosc.ValueTrigger(f"{name}_{label}_{i}_time", 0, xosc.ConditionEdge.none,
                                                 xosc.SimulationTimeCondition(round(float(t), 4), xosc.Rule.greaterOrEqual)))
         else:
-            event.add_trigger(start_trigger(xosc, f"{name}_{state}_{i}", spec, ego, name, delay=t - float(spec[1])))
+            event.add_trigger(start_trigger(xosc, f"{name}_{label}_{i}", spec, ego, name, delay=t - float(spec[1])))
         maneuver.add_event(event)
-    group = xosc.ManeuverGroup(f"{name}_group")
+    group = xosc.ManeuverGroup(f"{name}_state_group")
     group.add_actor(name)
     group.add_maneuver(maneuver)
     return group
 
 
-__all__ = ["as_recorded", "fire_index", "signal_group", "start_trigger", "triggered_group"]
+__all__ = ["as_recorded", "fire_index", "start_trigger", "state_group", "triggered_group"]

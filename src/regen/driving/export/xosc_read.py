@@ -13,6 +13,10 @@ element and where it is, never dropped silently):
   to an absolute target speed and ``LaneChangeAction`` to a relative target lane (step, linear,
   cubic or sinusoidal dynamics over time, distance or rate);
 - ``TrafficSignalStateAction`` (in ``Init`` and in events): a signal of the map, by its id;
+  ``UserDefinedAction/CustomCommandAction`` of the types this project writes (``regen:door``,
+  ``regen:siren``, ``regen:hazard_lights``; :mod:`regen.driving.export.appearance`) and, from
+  OpenSCENARIO 1.3 files, ``AppearanceAction``: a door's ``AnimationAction``, the
+  ``LightStateAction`` of special purpose lights (a siren) and warning lights (hazard lights);
 - start conditions (with their delays): ``SimulationTimeCondition``, ``DistanceCondition`` and
   ``TimeToCollisionCondition`` to a ``WorldPosition``, ``SpeedCondition``,
   ``RelativeDistanceCondition`` (longitudinal); condition groups are OR-ed, conditions within a
@@ -49,8 +53,9 @@ class Condition:
 
 @dataclass(frozen=True)
 class Action:
-    """One action. ``kind``: 'trajectory', 'speed', 'lane_change' (motion) or 'signal' (a traffic
-    signal of the map switches to ``state``)."""
+    """One action. ``kind``: 'trajectory', 'speed', 'lane_change' (motion), 'signal' (a traffic
+    signal of the map switches to ``state``) or 'state' (the actor's property ``key`` becomes
+    ``state``: a door, a siren, hazard lights)."""
 
     kind: str
     # trajectory: (t [s], x [m], y [m], heading [rad]) vertices; relative: times from the event's start
@@ -61,7 +66,9 @@ class Action:
     dimension: str = "time"  # time [s], distance [m], rate [m/s^2]
     amount: float = 0.0  # the dynamics' value in its dimension
     signal: str = ""  # the signal's id in the map (signal)
-    state: str = ""  # its new state (signal)
+    state: str = ""  # its new state (signal, state)
+    key: str = ""  # the property it sets (state): door, siren, hazard_lights
+    entity: str = ""  # whose property (state; empty: the event's actor)
 
 
 @dataclass
@@ -100,6 +107,7 @@ class ParsedScenario:
     events: list[Event]
     stop_time: float | None
     signals: dict[str, str] = field(default_factory=dict)  # signal id -> its state at the start
+    states: dict[str, dict[str, str]] = field(default_factory=dict)  # entity -> property -> state at the start
 
 
 class _Unsupported(list):
@@ -200,7 +208,45 @@ def _lane_change(lca: ET.Element, where: str) -> Action:
                   amount=amount)
 
 
+_LIGHTS = {"specialPurposeLights": "siren", "warningLights": "hazard_lights"}
+
+
+def _appearance(ap: ET.Element, where: str, bad: _Unsupported) -> Action | None:
+    """A door's animation or a siren's or hazard lights' light state (OpenSCENARIO 1.2)."""
+    if (ls := ap.find("LightStateAction")) is not None:
+        light = ls.find("LightType/VehicleLight")
+        key = _LIGHTS.get(light.get("vehicleLightType", "") if light is not None else "")
+        mode = ls.find("LightState")
+        if key is None or mode is None:
+            bad.add(ls, f"{where} (only special purpose and warning lights are read)")
+            return None
+        return Action(kind="state", key=key, state="off" if mode.get("mode") == "off" else "on")
+    comp = ap.find("AnimationAction/AnimationType/ComponentAnimation/VehicleComponent")
+    if comp is not None and comp.get("vehicleComponentType", "").startswith("door"):
+        anim = ap.find("AnimationAction/AnimationState")
+        opened = anim is not None and float(anim.get("state", "0") or 0) >= 0.5
+        return Action(kind="state", key="door", state="open" if opened else "closed")
+    bad.add(ap[0] if len(ap) else ap, f"{where} (only door animations are read)")
+    return None
+
+
+def _command(ud: ET.Element, where: str, bad: _Unsupported) -> Action | None:
+    """A ``UserDefinedAction`` this project writes (a door, a siren, hazard lights)."""
+    from regen.driving.export.appearance import read_command
+
+    cc = ud.find("CustomCommandAction")
+    got = read_command(cc.get("type", ""), cc.text or "") if cc is not None else None
+    if got is None:
+        bad.add(cc if cc is not None else ud, f"{where} (custom commands other than regen:door, "
+                "regen:siren, regen:hazard_lights)")
+        return None
+    entity, key, value = got
+    return Action(kind="state", key=key, state=value, entity=entity)
+
+
 def _private(pa: ET.Element, where: str, bad: _Unsupported) -> Action | None:
+    if (ap := pa.find("AppearanceAction")) is not None:
+        return _appearance(ap, where, bad)
     if (sa := pa.find("LongitudinalAction/SpeedAction")) is not None:
         return _speed_action(sa, where)
     if (fta := pa.find("RoutingAction/FollowTrajectoryAction")) is not None:
@@ -317,6 +363,7 @@ def read_xosc(path: str | Path) -> ParsedScenario:
         bad.add(other, "Entities")
     start: dict[str, tuple[float, float, float]] = {}
     speed: dict[str, float] = {}
+    states: dict[str, dict[str, str]] = {}
     for priv in board.findall("Init/Actions/Private"):
         name = priv.get("entityRef", "")
         where = f"Init of {name!r}"
@@ -325,8 +372,15 @@ def read_xosc(path: str | Path) -> ParsedScenario:
                 start[name] = _world(tp.find("Position"), where)
             elif (sa := pa.find("LongitudinalAction/SpeedAction")) is not None:
                 speed[name] = _speed_action(sa, where).target
+            elif (ap := pa.find("AppearanceAction")) is not None:
+                got = _appearance(ap, where, bad)
+                if got is not None:
+                    states.setdefault(name, {})[got.key] = got.state
             else:
                 bad.add(pa[0] if len(pa) else pa, where)
+    for ud in board.findall("Init/Actions/UserDefinedAction"):
+        if (cmd := _command(ud, "Init", bad)) is not None:
+            states.setdefault(cmd.entity, {})[cmd.key] = cmd.state
     signals: dict[str, str] = {}
     for ga in board.findall("Init/Actions/GlobalAction"):
         sig = _signal(ga, "Init")
@@ -348,6 +402,10 @@ def read_xosc(path: str | Path) -> ParsedScenario:
                         ga = a.find("GlobalAction")
                         if ga is not None and (sig := _signal(ga, where)) is not None:
                             actions.append(sig)
+                            continue
+                        if (ud := a.find("UserDefinedAction")) is not None:
+                            if (cmd := _command(ud, where, bad)) is not None:
+                                actions.append(cmd)
                             continue
                         if pa is None:
                             bad.add(a[0] if len(a) else a, where)
@@ -377,7 +435,7 @@ def read_xosc(path: str | Path) -> ParsedScenario:
                           "TeleportAction to a WorldPosition in <Init>")
     return ParsedScenario(path=path, description=header.get("description", ""), map_file=map_file,
                           entities=entities, start=start, speed=speed, events=events, stop_time=stop,
-                          signals=signals)
+                          signals=signals, states=states)
 
 
 __all__ = ["Action", "Condition", "EntityDecl", "Event", "ParsedScenario", "read_xosc"]

@@ -376,6 +376,12 @@ def build_scenario(path: CausePath, roles: list[RoleChoice], *, narrative: str, 
         raise GroundingError("; ".join(problems))
     template = choose_map(template, roles)
     sol = solve(template, [_actor(r, db) for r in roles], seed=seed)
+    if sol.report.status == "infeasible" and template.map != "four_way" and "four_way" in template.junction_maps:
+        # the T-junction has no north arm: a car that must come through the junction needs one
+        wider = on_junction_map(template, "four_way")
+        again = solve(wider, [_actor(r, db) for r in roles], seed=seed)
+        if again.report.status != "infeasible":
+            template, sol = wider, again
     entities = [Entity(name="ego", asset="ego", kind="robot", behavior=template.id,
                        behavior_params={"text": path.behavior.text})]
     for r in roles:

@@ -17,8 +17,22 @@ from typing import Any
 from regen.cpsat import NamedModel
 from regen.driving.world.actors import ActorSpec
 from regen.driving.world.egos import EGO_SIZE, EgoTemplate
+from regen.driving.world.maps import geometry
 
 DM = 10  # decimetres per metre (and deciseconds per second)
+
+
+def frame_start(ego: EgoTemplate) -> float:
+    """The least offset [m] along the ego's frame where there is road: -400, or the junction's
+    edge when the frame continues behind the junction into an arm the map lacks (a south-bound
+    frame on the T-junction, which has no north arm)."""
+    g = geometry(ego.map)
+    if not g.junction:
+        return -400.0
+    fr = ego.frame
+    behind = {(1.0, 0.0): "west", (-1.0, 0.0): "east", (0.0, -1.0): "north", (0.0, 1.0): "south"}.get(
+        (round(fr.ux, 6) + 0.0, round(fr.uy, 6) + 0.0))
+    return -400.0 if behind is None or behind in g.arms else -g.junction_radius
 
 
 class PlacementModel(NamedModel):
@@ -54,9 +68,10 @@ class PlacementModel(NamedModel):
         return var
 
     def start(self, a: ActorSpec, speeds: tuple[float, float]) -> tuple[Any, Any]:
-        """The start offset ``s`` along the ego's frame [-400, 400] m and the speed ``v``
-        within ``speeds`` (low, high) [m/s] of an actor that has a place on the road."""
-        return self.int(a.name, "s", -400.0, 400.0), self.int(a.name, "v", *speeds)
+        """The start offset ``s`` along the ego's frame [-400, 400] m (from the junction on, where
+        the map has no road behind it) and the speed ``v`` within ``speeds`` (low, high) [m/s] of
+        an actor that has a place on the road."""
+        return self.int(a.name, "s", frame_start(self.ego), 400.0), self.int(a.name, "v", *speeds)
 
     def trigger(self, a: ActorSpec) -> Any:
         """The time ``t`` [s] at which the actor does its thing with the template ego, within the
