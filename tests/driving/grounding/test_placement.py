@@ -40,3 +40,23 @@ def test_lights_and_sensors_only_get_a_switching_time():
     assert sol.report.status in ("optimal", "feasible")
     assert set(sol.params["gnss1"]) == set(sol.params["light1"]) == {"t"}
     assert t.t_event - 2.5 <= sol.params["gnss1"]["t"] <= t.t_event - 0.2
+
+
+def test_no_actor_starts_on_an_arm_the_map_lacks():
+    """A lead car for a stop after a right turn drives through the junction from the north: the
+    T-junction has no north arm, so the frame starts at the junction there and the scenario
+    goes to the four-way map (the car started on grass before)."""
+    from driving_chains import FEASIBLE
+
+    from regen.driving.grounding.rules import ground_rule_based
+    from regen.driving.world.egos import EGO_TEMPLATES
+    from regen.driving.world.maps import JUNCTION_RADIUS, geometry
+    from regen.driving.world.placement import frame_start
+
+    t = EGO_TEMPLATES["stop_after_turn"]
+    assert t.map == "t_junction" and frame_start(t) == -JUNCTION_RADIUS
+    assert frame_start(EGO_TEMPLATES["stop_abruptly"]) == -400.0
+    sc = ground_rule_based(FEASIBLE["stop_after_turn"][2])
+    assert sc.world["map"] == "four_way" and sc.solver.status in ("optimal", "feasible")
+    g = geometry("t_junction")
+    assert "north" not in g.arms
