@@ -42,6 +42,11 @@ if TYPE_CHECKING:
     from regen.llm.client import LLM
 
 
+#: the behavior of an entity whose motion an imported file gives (``regen import``): no motion
+#: primitive, so no words can be checked against it
+IMPORTED = "storyboard"
+
+
 def _shown(e: Entity) -> str:
     props = ", ".join(f"{k} = {v}" for k, v in e.properties.items()
                       if k not in ("behavior", "start_location", "target_speed", "location"))
@@ -95,6 +100,8 @@ def check_rules(scenario: Scenario, db: AssetDatabase, *, robot: str | Sequence[
         named.extend(f"{e.asset} making {e.behavior}" for e in cast if e.behavior in motions)  # rules decide
         for e in cast:
             for prop in db.parameters_of(e.asset):
+                if prop == "behavior" and e.behavior == IMPORTED:  # its motion is the imported file's
+                    continue
                 hits = db.named_states(e.asset, prop, event)
                 if not hits:
                     continue

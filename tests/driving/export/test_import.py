@@ -168,3 +168,17 @@ def test_an_exported_light_comes_back_switching_at_the_same_steps(tmp_path):
     a = _trace(first.path).actors["traffic_light1"].states["light_state"]
     b = _trace(back.path).actors["traffic_light1"].states["light_state"]
     assert a == b and a[0] == "green" and a[-1] == "red"
+
+
+def test_whatif_adds_a_cause_to_an_imported_scenario_and_its_actors_stay(tmp_path):
+    out = _import(HAND, tmp_path / "run")
+    res = CliRunner().invoke(app, ["whatif", str(out.path), "--add", "a truck is parked at the roadside ahead",
+                                   "--no-pictures"], env={"COLUMNS": "200"})
+    assert res.exit_code == 0, res.output
+    (folder,) = (tmp_path / "run" / "whatif").glob("*-whatif-*")
+    record = json.loads((folder / "whatif.json").read_text())
+    assert record["status"] == "verified", record["reason"]  # the file's motion is not judged by words
+    sc = json.loads((folder / "scenario.json").read_text())["scenario"]
+    assert {e["asset"] for e in sc["entities"]} >= {"adult", "truck"}
+    stages = [c["state"] for st in sc["fsm"]["stages"] for c in st["conditions"]]
+    assert stages.index("moving_off") < stages.index("braking")  # the imported cause still before the reaction

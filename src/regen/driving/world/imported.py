@@ -11,12 +11,13 @@ from __future__ import annotations
 
 from regen.core.scenario import FSM, Entity, Stage, StateRef
 from regen.driving.world.setting import ImportedStoryboard
+from regen.verify.fidelity import IMPORTED
 
 
 def imported_entities(board: ImportedStoryboard) -> list[Entity]:
     """The scenario entities of the imported actors."""
     return [Entity(name=a.name, asset=a.asset, kind="object" if a.kind == "object" else "agent",
-                   properties=dict(a.properties), behavior="storyboard",
+                   properties=dict(a.properties), behavior=IMPORTED,
                    behavior_params={"event": a.event, "condition": a.condition}) for a in board.actors]
 
 
