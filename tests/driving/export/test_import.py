@@ -173,7 +173,7 @@ def test_an_exported_light_comes_back_switching_at_the_same_steps(tmp_path):
 def test_whatif_adds_a_cause_to_an_imported_scenario_and_its_actors_stay(tmp_path):
     out = _import(HAND, tmp_path / "run")
     res = CliRunner().invoke(app, ["whatif", str(out.path), "--add", "a truck is parked at the roadside ahead",
-                                   "--no-pictures"], env={"COLUMNS": "200"})
+                                   "--no-pictures", "--no-judge"], env={"COLUMNS": "200"})
     assert res.exit_code == 0, res.output
     (folder,) = (tmp_path / "run" / "whatif").glob("*-whatif-*")
     record = json.loads((folder / "whatif.json").read_text())
