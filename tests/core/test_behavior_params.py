@@ -67,7 +67,7 @@ def test_a_parameter_of_the_other_domain_is_refused_with_what_to_give() -> None:
 
 
 def test_unknown_or_bad_parameters_are_refused_naming_the_key() -> None:
-    with pytest.raises(ConfigError, match=r"driving behaviors take no 'speed' \(they take: ego_template, route, recorded\)"):
+    with pytest.raises(ConfigError, match=r"driving behaviors take no 'speed' \(they take: ego_template, route, recorded, imported\)"):
         make_behavior(STOP, "driving", speed=3)
     with pytest.raises(ConfigError, match=r"manipulation behaviors take no 'route' \(they take: reward\)"):
         make_behavior(DOOR, "manipulation", route=[{"x": 0, "y": 0}])
