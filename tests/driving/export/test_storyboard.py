@@ -108,3 +108,12 @@ def test_a_light_that_turns_red_switches_the_maps_signal_on_the_egos_approach(tm
         assert entity.find("EntityCondition/DistanceCondition") is not None
         changes.append((action.get("state"), float(cond.get("delay"))))
     assert changes == [("yellow", 0.0), ("red", YELLOW_TIME)]
+
+
+def test_every_actor_has_a_story_of_its_own_the_egos_first(tmp_path):
+    root, _ = _export(CHILD, tmp_path / "stories")
+    stories = root.findall("Storyboard/Story")
+    assert [s.get("name") for s in stories] == ["ego_story", "child1_story"]
+    for s in stories:
+        actors = {r.get("entityRef") for g in s.iter("ManeuverGroup") for r in g.findall("Actors/EntityRef")}
+        assert actors == {s.get("name").removesuffix("_story")}

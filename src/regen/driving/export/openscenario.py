@@ -280,7 +280,8 @@ def export_openscenario(scenario: Scenario, trace: Trace, out_dir: Path, *,
     ``sample_dt`` [s] is the spacing of trajectory vertices. An actor whose cause action starts on
     a trigger gets a storyboard event started by the matching condition on the ego
     (:mod:`regen.driving.export.storyboard`); the others replay their recorded path on
-    simulation time. ``include_ego=False`` leaves out the ego's own story (the ego is still
+    simulation time. Every actor has a Story of its own (the ego's first).
+    ``include_ego=False`` leaves out the ego's own story (the ego is still
     placed), for a user who drives it with their own stack. Returns ``{"xosc": path}`` plus
     ``"xodr"`` when the map is known. A trace without steps raises :class:`ConfigError`.
     """
@@ -324,13 +325,10 @@ def export_openscenario(scenario: Scenario, trace: Trace, out_dir: Path, *,
     times = np.asarray(trace.times, float)
     entities = xosc.Entities()
     init = xosc.Init()
-    story = xosc.Story(f"{safe_name(scenario.id)}_story")
-    act = xosc.Act(f"{safe_name(scenario.id)}_replay", xosc.ValueTrigger(
-        "act_start", 0, xosc.ConditionEdge.none, xosc.SimulationTimeCondition(0, xosc.Rule.greaterOrEqual)))
+    stories: dict[str, list] = {}  # entity -> its maneuver groups: one Story per actor
     moving = 0
     for orig, changes, spec in _state_changes(xosc, plans, trace, names, signal_ids, init, db):
-        act.add_maneuver_group(state_group(xosc, names[orig], changes, spec, names.get("ego", "ego")))
-        moving += 1
+        stories.setdefault(names[orig], []).append(state_group(xosc, names[orig], changes, spec, names.get("ego", "ego")))
     for orig, track in trace.actors.items():
         kind = _kind(track.asset, db)
         if kind is None or not track.x:
@@ -352,21 +350,25 @@ def export_openscenario(scenario: Scenario, trace: Trace, out_dir: Path, *,
                 idx = sorted(set(int(i) for i in _samples(times, sample_dt)) | {k_fire})
                 where = idx.index(k_fire)
                 before = float(np.hypot(np.diff(x[: k_fire + 1]), np.diff(y[: k_fire + 1])).sum())
-                act.add_maneuver_group(triggered_group(
+                stories.setdefault(name, []).append(triggered_group(
                     xosc, name, [_position(xosc, track, heading, i) for i in idx], times[idx], where,
                     as_recorded(spec, trace, k_fire),
                     names.get("ego", "ego"), moves_before=before >= MOVING))
             else:
-                act.add_maneuver_group(_trajectory_event(xosc, name, track, heading, times, sample_dt))
+                stories.setdefault(name, []).append(_trajectory_event(xosc, name, track, heading, times, sample_dt))
             moving += 1
-    if moving:
-        story.add_act(act)
     duration = float(times[-1] - times[0])
     stop = xosc.ValueTrigger("end_of_recording", 0, xosc.ConditionEdge.rising,
                              xosc.SimulationTimeCondition(duration, xosc.Rule.greaterThan),
                              triggeringpoint="stop")
     board = xosc.StoryBoard(init, stop)
-    if moving:
+    for name in sorted(stories, key=lambda n: n != names.get("ego", "ego")):  # the ego's own story first
+        act = xosc.Act(f"{name}_act", xosc.ValueTrigger(f"{name}_act_start", 0, xosc.ConditionEdge.none,
+                                                         xosc.SimulationTimeCondition(0, xosc.Rule.greaterOrEqual)))
+        for group in stories[name]:
+            act.add_maneuver_group(group)
+        story = xosc.Story(f"{name}_story")
+        story.add_act(act)
         board.add_story(story)
     description = _safe_text(f"ReGen scenario {scenario.id}: {scenario.narrative}")
     doc = xosc.Scenario(description, "regen", xosc.ParameterDeclarations(), entities, board, road,
