@@ -158,14 +158,19 @@ def _entity(obj: ET.Element, bad: _Unsupported) -> EntityDecl | None:
                       properties=props)
 
 
+def _dynamics(dyn: ET.Element | None, where: str, shape: str, amount: float) -> tuple[str, str, float]:
+    """(shape, dimension, value) of an action's dynamics; the given defaults without one."""
+    if dyn is None:
+        return shape, "time", amount
+    return dyn.get("dynamicsShape", shape), dyn.get("dynamicsDimension", "time"), _f(dyn, "value", where)
+
+
 def _speed_action(sa: ET.Element, where: str) -> Action:
     target = sa.find("SpeedActionTarget/AbsoluteTargetSpeed")
     if target is None:
         raise ConfigError(f"{where}: a <SpeedAction> to a relative target speed; regen import reads "
                           "<AbsoluteTargetSpeed> only")
-    dyn = sa.find("SpeedActionDynamics")
-    shape, dim, amount = ("step", "time", 0.0) if dyn is None else (
-        dyn.get("dynamicsShape", "step"), dyn.get("dynamicsDimension", "time"), _f(dyn, "value", where))
+    shape, dim, amount = _dynamics(sa.find("SpeedActionDynamics"), where, "step", 0.0)
     return Action(kind="speed", target=_f(target, "value", where), shape=shape, dimension=dim, amount=amount)
 
 
@@ -201,9 +206,7 @@ def _lane_change(lca: ET.Element, where: str) -> Action:
     if target is None:
         raise ConfigError(f"{where}: a <LaneChangeAction> to an absolute lane; regen import reads "
                           "<RelativeTargetLane> (positive: lanes to the left)")
-    dyn = lca.find("LaneChangeActionDynamics")
-    shape, dim, amount = ("sinusoidal", "time", 3.0) if dyn is None else (
-        dyn.get("dynamicsShape", "sinusoidal"), dyn.get("dynamicsDimension", "time"), _f(dyn, "value", where))
+    shape, dim, amount = _dynamics(lca.find("LaneChangeActionDynamics"), where, "sinusoidal", 3.0)
     return Action(kind="lane_change", target=_f(target, "value", where), shape=shape, dimension=dim,
                   amount=amount)
 
