@@ -61,6 +61,10 @@ MECHANICS = {
         ("the ego-vehicle runs out of fuel", "ego-vehicle runs out of"),
         ("the navigation system tells the ego to stop", "navigation system tells"),
         ("the ego-vehicle suffers a brake failure", "ego-vehicle suffers a brake failure"),
+        # its own cabin, occupants and lamps: nothing on the road to react to
+        ("the radio in the ego-vehicle plays a loud song", "radio in the ego"),
+        ("the ego's passenger opens a window", "the ego's passenger"),
+        ("the ego-vehicle's headlights switch on at dusk", "ego-vehicle's headlights"),
     ],
 }
 CONTEXTS = {
@@ -72,7 +76,8 @@ CONTEXTS = {
                 "the truck's brakes fail ahead of the ego-vehicle", "the car ahead stalls at the light",
                 "the ego's camera is blinded by sun glare", "the driver of the ego-vehicle is distracted",
                 "a police officer signals the ego-vehicle to stop",
-                "the ego-vehicle is ordered to stop by a police officer", "a tree fell in front"],
+                "the ego-vehicle is ordered to stop by a police officer", "a tree fell in front",
+                "a passenger steps out of the bus ahead", "an oncoming car has its headlights off"],
 }
 
 
@@ -267,7 +272,9 @@ def test_a_forced_mechanical_cause_is_accepted_with_a_note() -> None:
     g = _expand("manipulation", model, forced_causes=[cause])
     n = _node(g, cause)
     accepted = next(d for d in n.history if d.action == "accepted")
-    assert accepted.reason.endswith("the mechanics rule would have rejected it ('the robot is programmed')")
+    assert accepted.reason.endswith("a rule would have rejected it: it restates the robot's own command, "
+                                    "programming or mechanics ('the robot is programmed'), not a context in "
+                                    "which it acts")
     # the only entity offered is the door the robot opens: its own task, no cause's entity
     assert n.status == "unsimulatable" and "own task object" in n.history[-1].reason
 

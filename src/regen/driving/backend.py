@@ -39,6 +39,12 @@ def _matched(text: str) -> str | None:
         return None
 
 
+#: The ego's own cabin, occupants and lamps (its mechanics rule: a cause about them is no context)
+_CABIN = (r"(?:radio|music|stereo|song|playlist|podcast|headlights?|headlamps?|high\s+beams?|interior\s+lights?|"
+          r"wipers?|horn|air\s+conditioning|heater|heating|seats?|seat\s*belts?|windows?|sunroof|dashboard|"
+          r"infotainment|touchscreen|cabin|cup\s+holder|passengers?)\b")
+
+
 class DrivingBackend(DomainBackend):
     name = "driving"
     database_resource = RESOURCE
@@ -92,6 +98,9 @@ class DrivingBackend(DomainBackend):
             r"(?:\bego(?:[- ](?:vehicle|car))?|\bthe\s+(?:vehicle|car))\s+(?:suffers|has|experiences|develops)\s+"
             r"(?:a|an)\s+(?:sudden\s+)?(?:brake|engine|mechanical|software|steering|technical)\s+"
             r"(?:failure|fault|malfunction|problem)\b",
+            # the ego's cabin, occupants and lamps: nothing on the road that it could react to
+            r"(?:\bego(?:[- ](?:vehicle|car))?'s|\bthe\s+ego's)\s+(?:own\s+)?(?:\w+\s+)?" + _CABIN,
+            _CABIN + r"\s+(?:in|inside|of)\s+the\s+ego\b",
         ),
         # the ego's own words carry no meaning when telling causes apart
         stop_words=("ego", "vehicle"),

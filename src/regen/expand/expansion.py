@@ -141,13 +141,11 @@ class Expander:
                 if self._accept(graph, node, nid, self._insisted(domain, cand, plausible, opinion,
                                                                  judged.call_for(cand))):
                     new_ids.append(node.id)
-            elif plausible and (words := edges.restates_mechanics(domain, cand)):
-                # the judge accepted it, but it is the robot's own doing, not a context
+            elif plausible and (why := edges.ruled_out(domain, cand)):
+                # the judge accepted it, but it is the robot's own doing or happens elsewhere
                 said = Decision(action="accepted", by="model", call_id=judged.call_for(cand), reason=opinion)
                 self._reject(graph, node, nid, said)
-                self._reject(graph, node, nid, Decision(action="rejected", by="rule", reason=(
-                    f"restates the {domain.robot}'s own command, "
-                    f"programming or mechanics ('{words}'), not a context in which it acts")))
+                self._reject(graph, node, nid, Decision(action="rejected", by="rule", reason=why))
             elif plausible:
                 if self._accept(graph, node, nid, Decision(action="accepted", by="model",
                                                            call_id=judged.call_for(cand), reason=opinion)):
@@ -163,8 +161,8 @@ class Expander:
         """The user's acceptance of a cause given with --cause, carrying the judge's opinion."""
         reason = (f"given with --cause, accepted without judging; the judge said it is "
                   f"{'plausible' if plausible else 'implausible'}: {opinion}")
-        if words := edges.restates_mechanics(domain, cand):
-            reason += f"; the mechanics rule would have rejected it ('{words}')"
+        if why := edges.ruled_out(domain, cand):
+            reason += f"; a rule would have rejected it: it {why}"
         return Decision(action="accepted", by="user", call_id=call_id, reason=reason)
 
     @staticmethod

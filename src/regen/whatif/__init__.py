@@ -257,15 +257,15 @@ def folder_name(original: Path, edits: list[Edit]) -> str:
 def judge_root(llm: LLM, domain: str, events: list[str]) -> dict[str, Any]:
     """Whether the chain's root cause still plausibly and directly causes the event after it:
     the expansion's own event judge (and its rule against the robot's own mechanics)."""
-    from regen.expand.edges import judge_events, restates_mechanics
+    from regen.expand.edges import judge_events, ruled_out
 
     if len(events) < 2:
         return {"by": "none", "plausible": None, "reason": "the chain has no cause event"}
     root, chain = events[0], events[1:]
     judged = judge_events(llm, domain, chain, [root])
-    mechanics = restates_mechanics(domain, root)
-    ok = root in judged.accepted and mechanics is None
-    reason = mechanics or judged.accepted.get(root) or judged.rejected.get(root, "")
+    ruled = ruled_out(domain, root)
+    ok = root in judged.accepted and ruled is None
+    reason = ruled or judged.accepted.get(root) or judged.rejected.get(root, "")
     return {"by": f"model ({llm.provider.id})", "plausible": ok, "reason": reason,
             "call_id": judged.calls.get(root)}
 

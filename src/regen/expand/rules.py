@@ -1,0 +1,40 @@
+"""Rules that reject a candidate cause the judge accepted, whatever the domain.
+
+A small judge says yes to nearly every candidate; some of its mistakes are visible in the words
+alone. A cause that happens somewhere else ("a jaywalker in another city", "a cyclist on a road
+across the river", the paper's own example of an implausible edge) cannot directly cause what
+the robot does here. These rules only ever reject: a cause they do not match is left to the
+judge. The robot's own command, programming or mechanics is the domain's rule
+(:attr:`regen.contract.Wording.mechanics`).
+
+Imports: nothing of the toolkit.
+"""
+
+from __future__ import annotations
+
+import re
+
+_PLACE = (r"(?:city|town|country|state|province|village|district|neighbou?rhood|suburb|street|road|"
+          r"highway|motorway|freeway|continent|region|county|planet|part\s+of\s+(?:town|the\s+city|the\s+country))")
+
+#: Phrases that put a cause somewhere other than where the robot acts; searched in the
+#: lower-cased cause text with ``re.search``. "From another road" is not here: a car from
+#: another road can enter the robot's.
+ELSEWHERE: tuple[re.Pattern[str], ...] = tuple(re.compile(p) for p in (
+    r"\b(?:in|on|at|inside)\s+(?:another|a\s+different|a\s+distant|a\s+faraway|a\s+far-away|a\s+far\s+away|"
+    r"some\s+other|the\s+next|a\s+neighbou?ring)\s+" + _PLACE + r"\b",
+    r"\b(?:on\s+|at\s+|in\s+)?the\s+(?:other|far)\s+(?:side|end)\s+of\s+(?:the\s+)?(?:town|city|country|world|"
+    r"river|lake|valley|bay|state)\b",
+    r"\bacross\s+(?:the\s+)?(?:river|town|city|country|lake|sea|ocean|bay|border|valley)\b",
+    r"\b(?:far\s+away|far\s+off|far\s+from\s+(?:here|the\s+\w+)|(?:miles|kilometers|kilometres|blocks)\s+away)\b",
+    r"\b(?:abroad|overseas)\b",
+))
+
+
+def happens_elsewhere(cause: str) -> str | None:
+    """The words that place ``cause`` somewhere other than where the robot acts, or None."""
+    text = " ".join(cause.lower().replace("\u2019", "'").split())
+    for rx in ELSEWHERE:
+        if m := rx.search(text):
+            return m.group(0).strip()
+    return None
