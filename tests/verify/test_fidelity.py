@@ -154,3 +154,47 @@ def test_a_pedestrian_that_steps_onto_the_road_must_cross_not_walk_along() -> No
     across = chain("stop_abruptly", "a pedestrian steps onto the road ahead",
                    ("adult", {"behavior": ["cross_the_road"], "start_location": ["roadside_ahead"]}))
     assert _fidelity(across).status == "faithful"
+
+
+def _door(event: str, assets: list[str]):
+    """'the robot opens the door' because of ``event``, grounded by the rules with ``assets``."""
+    from regen.core import Behavior, CausePath, PathEntity
+    from regen.manipulation.behaviors import BEHAVIORS
+    from regen.manipulation.grounding import ground_path
+
+    b = BEHAVIORS["open_door"]
+    path = CausePath(behavior=Behavior(text=b.text, domain="manipulation", params={"reward": b.id}),
+                     events=[event, b.text], entities=[PathEntity(asset=a, event=event) for a in assets])
+    return ground_path(path, None, seed=0, relax=False)
+
+
+def test_a_person_or_animal_named_in_words_no_asset_has_must_be_shown() -> None:
+    manip = domains.make("manipulation")
+    db, robot, own = manip.database(), manip.report_hints.robot, frozenset({"door"})
+    plumber = "the plumber is waiting outside to come in"  # a person no asset's names say
+    f = check_rules(_door(plumber, ["book", "trash_can"]), db, robot=robot, own=own)
+    assert f.status == "unfaithful" and "names a person ('plumber')" in f.reason and "book" in f.reason
+    assert with_fidelity(VERIFIED, f).status == "unfaithful"
+    for who in ("adult", "visitor", "child"):  # any person plays the plumber
+        assert check_rules(_door(plumber, [who]), db, robot=robot, own=own).status == "faithful", who
+    # grandma is a name of the adult: the asset named decides, and says so once
+    f = check_rules(_door("grandma is waiting outside", ["book"]), db, robot=robot, own=own)
+    assert "names a grandma" in f.reason and "('grandma')" not in f.reason
+    puppy = "the puppies scratch at the door to come in"
+    assert check_rules(_door(puppy, ["pet"]), db, robot=robot, own=own).status == "faithful"
+    f = check_rules(_door(puppy, ["adult"]), db, robot=robot, own=own)
+    assert f.status == "unfaithful" and "names an animal ('puppies')" in f.reason
+    # an owner or a past doer is not in the scene: the rules leave it undecided
+    for event in ("the plumber's book lies by the door", "a book was dropped by the plumber at the door"):
+        f = check_rules(_door(event, ["book"]), db, robot=robot, own=own)
+        assert f.status != "unfaithful" and "person" not in f.reason, event
+
+
+def test_a_road_user_carries_a_person_and_an_animal_needs_one() -> None:
+    woman = chain("stop_abruptly", "a woman on a bike swerves into the lane",
+                  ("bicycle", {"behavior": ["change_lane"], "start_location": ["ahead_adjacent_lane"]}))
+    assert _fidelity(woman).status == "faithful"  # the bicycle's rider
+    deer = chain("stop_abruptly", "a deer jumps onto the road ahead",
+                 ("child", {"behavior": ["cross_the_road"], "start_location": ["roadside_ahead"]}))
+    f = _fidelity(deer)
+    assert f.status == "unfaithful" and "names an animal ('deer')" in f.reason

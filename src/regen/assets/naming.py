@@ -14,6 +14,7 @@ import re
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, Literal
 
+from regen.assets.kinds import beings_named, kinds_of
 from regen.assets.names import (
     FUNCTION_WORDS,
     PARAPHRASE_THRESHOLD,
@@ -50,12 +51,25 @@ class Naming:
     if TYPE_CHECKING:
         assets: dict[str, AssetSpec]
         properties: dict[str, PropertySpec]
+        categories: dict[str, list[str]]
 
         def entities(self) -> list[str]: ...
         def parameters_of(self, asset: str) -> list[str]: ...
         def named_states(self, asset: str, prop: str, event: str) -> dict[str, str]: ...
         def named_state(self, asset: str, prop: str, event: str) -> tuple[str, str] | None: ...
         def named_property_states(self, event: str) -> list[tuple[str, str, str]]: ...
+
+    def kinds_of(self, asset: str) -> frozenset[str]:
+        """The kinds of being (:mod:`regen.assets.kinds`: 'person', 'animal') ``asset`` is; a
+        member of the database's 'vehicles' category carries a person, its driver or rider."""
+        spec = self.assets[asset]
+        return kinds_of(asset, spec.aliases, carries_people=asset in self.categories.get("vehicles", ()))
+
+    @staticmethod
+    def beings_in(text: str, *, exclude: str | Sequence[str] = ()) -> dict[str, str]:
+        """Kind -> word, for the persons and animals ``text`` names as actors
+        (:func:`regen.assets.kinds.beings_named`)."""
+        return beings_named(text, exclude=exclude)
 
     def named_in(self, text: str, *, exclude: str | Sequence[str] = "",
                  skip: frozenset[str] = frozenset()) -> list[AssetMatch]:

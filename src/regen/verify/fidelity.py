@@ -14,7 +14,10 @@ behaviors and states are compared with what each cause event's words name:
    does not show a pet let in);
 5. where the text names no asset, a state it names ('distracted') is one that some entity of
    the scenario can have (a driver's state needs a vehicle; a green light and pedestrians do not
-   show a distracted driver).
+   show a distracted driver);
+6. a person or an animal the words name in words no asset carries ('grandma', 'a puppy':
+   :mod:`regen.assets.kinds`) is shown by some entity of that kind (a book and a trash can do
+   not show grandma).
 
 A mismatch makes the verdict ``unfaithful`` (not feasible), with what the text names and what
 the scenario shows. Where the text names no asset, rules cannot decide: a yes/no model question
@@ -119,6 +122,16 @@ def check_rules(scenario: Scenario, db: AssetDatabase, *, robot: str | Sequence[
                 named.append(f"{e.name}.{prop} = {state}")
                 if have is not None and state not in during:
                     wrong.append(f"'{phrase}' names {prop} = {state}, {e.name} has {prop} = {have}")
+    for event in causes:  # 6. a person or an animal the words name, whatever asset plays them
+        by_asset = {k for m in db.named_in(event, exclude=robot, skip=own) for k in db.kinds_of(m.asset)}
+        for kind, word in db.beings_in(event, exclude=robot).items():
+            if kind in by_asset:  # an asset of that kind is named: rule 1 holds it to that asset
+                continue
+            if any(kind in db.kinds_of(e.asset) for e in cast):
+                named.append(f"a {kind} ('{word}')")
+            else:
+                missing.append(f"'{event}' names {'an' if kind[0] in 'aeiou' else 'a'} {kind} ('{word}'), "
+                               f"and no entity of the scenario is one")
     if missing or wrong:
         return Fidelity(status="unfaithful", named=named, shown=shown,
                         reason="; ".join(missing + wrong) + f"; the scenario shows {', '.join(shown)}")
