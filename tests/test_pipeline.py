@@ -170,3 +170,20 @@ def test_a_graph_choice_grounding_cannot_honor_is_an_ungroundable_verdict(tmp_pa
     verdict = ground_stage(Refuses(), path, None, folder)
     assert verdict.status == "ungroundable" and not verdict.feasible
     assert "bicycle1" in verdict.reason and folder.verdict() == verdict
+
+
+def test_a_resumed_folder_holds_its_path_when_the_behavior_carries_tuples(tmp_path: Path) -> None:
+    """A recorded ego's poses are tuples in a fresh path and lists once read back: the same path,
+    so a rerun reuses the folder instead of grounding again."""
+    from regen.core.graph import CausePath, PathEntity
+    from regen.runfolder import ScenarioFolder
+
+    poses = ((0.0, 0.0, 0.0, 10.0), (0.1, 1.0, 0.0, 9.5))
+    behavior = Behavior(text=STOP, domain="driving", params={"recorded": {"poses": poses, "dt": 0.1}})
+    path = CausePath(behavior=behavior, events=["a cyclist crosses", STOP],
+                     entities=[PathEntity(asset="bicycle", event="a cyclist crosses")])
+    folder = ScenarioFolder(tmp_path / "s")
+    folder.start(path)
+    assert folder.holds(path)
+    other = path.model_copy(update={"events": ["a child crosses", STOP]})
+    assert not folder.holds(other)

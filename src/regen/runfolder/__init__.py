@@ -78,7 +78,9 @@ class ScenarioFolder:
     def holds(self, path: CausePath) -> bool:
         """Whether the folder was made for ``path`` (a resume reuses nothing else)."""
         got = read_model(self / self.PATH, CausePath)
-        return got.ok and got.value == path
+        # compared as JSON: a behavior's parameters read back hold lists where the fresh path may
+        # hold tuples (a recorded trajectory's poses), the same path all the same
+        return got.ok and got.value.model_dump(mode="json") == path.model_dump(mode="json")
 
     def timings(self) -> dict[str, float]:
         raw = read_json(self / self.TIMINGS)
