@@ -198,3 +198,15 @@ def test_a_road_user_carries_a_person_and_an_animal_needs_one() -> None:
                  ("child", {"behavior": ["cross_the_road"], "start_location": ["roadside_ahead"]}))
     f = _fidelity(deer)
     assert f.status == "unfaithful" and "names an animal ('deer')" in f.reason
+
+
+def test_a_truck_standing_at_the_roadside_must_stand_still() -> None:
+    moving = chain("stop_abruptly", "a parked truck stands at the roadside",
+                   ("truck", {"behavior": ["drive_forward"], "start_location": ["ahead_same_lane"]}))
+    f = _fidelity(moving)
+    assert f.status == "unfaithful" and "behavior = stationary" in f.reason
+    still = chain("stop_abruptly", "a parked truck stands at the roadside",
+                  ("truck", {"behavior": ["stationary"], "start_location": ["roadside_ahead"]}))
+    assert _fidelity(still).status == "faithful"
+    # a parked car that pulls out is not held still by the word 'parked'
+    assert DB.named_states("sedan", "behavior", "the parked car ahead pulls out into the lane") == {}
