@@ -338,6 +338,7 @@ def generate_cmd(
     if log == "jsonl":
         return
     from regen.pipeline import summarize
+    from regen.pipeline.terminal import print_outcomes
 
     summary = summarize(result.manifest, result.outcomes)
     relaxed = sum(o.verdict.status == "verified_after_relaxation" for o in result.outcomes)
@@ -352,12 +353,7 @@ def generate_cmd(
                   + (f" ({'; '.join(notes)})" if notes else "")
                   + f" ({escape(result.manifest.status)}); model: "
                   f"{result.manifest.usage_last.get('total', {}).get('calls', 0)} calls")
-    for o in result.outcomes:
-        mark = f"[green]{o.verdict.status}[/]" if o.verdict.feasible else f"[red]{o.verdict.status}[/]"
-        console.print(f"  {escape(o.folder)}: {mark}: {escape(o.verdict.reason)}")
-    report = out_dir / "report.html"
-    if report.exists():
-        console.print(f"report: {report}")
+    print_outcomes(console, result.outcomes, out_dir)
 
 
 @runs_app.command("list")

@@ -185,6 +185,11 @@ class DomainBackend(ABC):
 
         raise ConfigError(f"the {self.name} domain imports no scenario files")
 
+    def import_notes(self, scenario: Scenario) -> list[str]:
+        """What an imported scenario's reading left out or changed, in words (``regen import``
+        prints them). Default: nothing."""
+        return []
+
     @abstractmethod
     def ground(self, path: CausePath, llm: LLM | None, *, seed: int = 0) -> Scenario:
         """Turn a cause path into a scenario with an FSM and solved parameters.

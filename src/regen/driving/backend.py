@@ -220,6 +220,10 @@ class DrivingBackend(DomainBackend):
 
         return import_xosc(path)
 
+    def import_notes(self, scenario: Scenario) -> list[str]:
+        imported = scenario.behavior.params.get("imported") or {}
+        return [str(n) for n in imported.get("notes", [])]
+
     def simulate(self, scenario: Scenario, workdir: Path) -> SimulationOutput:
         from regen.driving.simulation.scenario import simulate_scenario
 

@@ -22,7 +22,9 @@ def import_command(
     fresh: bool = typer.Option(False, "--fresh", help="Discard an earlier run in --out instead of resuming it"),
 ) -> None:
     """Import a scenario file: read its storyboard, derive the FSM, simulate and verify it."""
+    from regen import domains
     from regen.pipeline.imports import import_file
+    from regen.pipeline.terminal import print_outcomes
     from regen.runfolder import out_folder
 
     out_dir = out_folder(out)
@@ -40,12 +42,6 @@ def import_command(
     scenario = result.outcomes[0].scenario()
     if scenario is not None:
         console.print(f"[bold]{escape(scenario.narrative)}[/]")
-        notes = scenario.behavior.params.get("imported", {}).get("notes", [])
-        for note in notes:
-            console.print(f"  note: {escape(str(note))}")
-    for o in result.outcomes:
-        mark = f"[green]{o.verdict.status}[/]" if o.verdict.feasible else f"[red]{o.verdict.status}[/]"
-        console.print(f"{escape(o.folder)}: {mark}: {escape(o.verdict.reason)}")
-    report = out_dir / "report.html"
-    if report.exists():
-        console.print(f"report: {report}")
+        for note in domains.make(scenario.domain).import_notes(scenario):
+            console.print(f"  note: {escape(note)}")
+    print_outcomes(console, result.outcomes, out_dir, indent="")

@@ -120,6 +120,7 @@ def test_the_command_imports_resumes_and_says_what_is_wrong(tmp_path):
                         env={"COLUMNS": "200"})
     assert res.exit_code == 0, res.output
     assert "verified" in res.output and "starts moving" in res.output
+    assert "note: " in res.output  # the domain's import notes (the map it was read on)
     folder = tmp_path / "run" / "scenarios" / "01-pedestrian-crossing"
     stamp = (folder / "verdict.json").stat().st_mtime_ns
     again = runner.invoke(app, ["import", str(HAND), "--out", str(tmp_path / "run"), "--no-pictures"])
