@@ -85,6 +85,9 @@ class ReportHints:
     animation: str = "animation of the run"
     keyframes: str = "key frames (click for full size)"
     robot: str = "robot"  # what the report calls the robot whose behavior is explained
+    #: the behavior tests record the robot's time to collision and gap (``regen test``); a
+    #: domain that measures neither gets no such columns
+    proximity: bool = False
 
 
 @dataclass

@@ -210,3 +210,15 @@ def test_a_folder_of_chains_has_one_rate_row_per_behavior(make_run):
     rows = {r.label: r.cells for r in rates if r.kind == "behavior"}
     assert rows == {"the ego-vehicle stops abruptly": [(1, 1)], "the ego-vehicle changes lanes": [(1, 2)]}
     assert [r.kind for r in rates] == ["behavior", "behavior", "cause", "cause", "cause"]
+
+
+def test_a_domain_that_measures_no_proximity_gets_no_time_to_collision_columns(make_run):
+    door = {"text": "the robot opens the door", "domain": "manipulation", "params": {"reward": "open_door"}}
+    for behavior, shown in ((door, False), (None, True)):
+        run = make_run([{}], **({"behavior": behavior} if behavior else {}))
+        write_json(run / "tests" / "mine" / "tests.json",
+                   {"policy": "mine", "oracle": "fsm", "cases": [_case(min_ttc=None, min_distance=None)]})
+        section = _tests_section(write_report(run).read_text(encoding="utf-8"))
+        assert ("min time to collision" in section) is shown
+        assert ('class="num min-ttc"' in section) is shown
+        assert _cell(_row(section, "mine"), "n-passed") == "1"

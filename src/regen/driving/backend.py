@@ -109,7 +109,7 @@ class DrivingBackend(DomainBackend):
     report_hints = ReportHints(animation="bird's-eye animation of the run",
                                keyframes="key frames at the start, at each stage and at the end "
                                          "(click for full size)",
-                               robot="ego-vehicle")
+                               robot="ego-vehicle", proximity=True)
 
     def check_behavior(self, behavior: Behavior) -> None:
         if behavior.params.get("reward"):
