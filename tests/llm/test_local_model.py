@@ -41,3 +41,16 @@ def test_offline_model_weighs_an_obvious_yes_above_an_obvious_no(tmp_path) -> No
     again = LLM("local", cache=tmp_path / "c.sqlite", replay=True)  # replayed from the cache file
     assert again.weigh(q.format("a child running onto the road in front of it"), ("yes", "no"),
                        prefix='{"answer": "', purpose="smoke").value == yes.value
+
+
+def test_a_process_that_loaded_the_model_exits_without_a_traceback() -> None:
+    """llama-cpp's own finalizer ran after the interpreter had torn its bindings down and printed
+    a TypeError at the end of every command that loaded the model."""
+    import subprocess
+    import sys
+
+    pytest.importorskip("llama_cpp", reason="the 'local' extra is not installed")
+    code = "from regen.llm import LLM; LLM('local').provider.llama()"
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    assert "Traceback" not in proc.stderr and "TypeError" not in proc.stderr, proc.stderr

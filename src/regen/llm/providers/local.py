@@ -7,6 +7,7 @@ The model is loaded once per process and used by one call at a time.
 
 from __future__ import annotations
 
+import atexit
 import logging
 import os
 import threading
@@ -33,6 +34,21 @@ _LOAD_LOCK = threading.Lock()
 
 def _threads() -> int:
     return max(1, min(os.cpu_count() or 1, 8))
+
+
+def _close_all() -> None:
+    """Free the loaded models while the interpreter is whole: left to llama-cpp's own finalizer
+    at exit, its C bindings are already gone and it prints a TypeError after every command."""
+    with _LOAD_LOCK:
+        while _LOADED:
+            _, llm = _LOADED.popitem()
+            try:
+                llm.close()
+            except Exception as exc:  # noqa: BLE001 (nothing may stop the exit)
+                log.debug("closing a local model: %s", exc)
+
+
+atexit.register(_close_all)
 
 
 def load_llama(path: Path, n_ctx: int = 4096) -> Any:
