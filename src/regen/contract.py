@@ -60,6 +60,13 @@ class Wording:
     #: world; expansion rejects such causes after the judge (``by="rule"``), unless the user
     #: insisted on them. Searched with ``re.search``; the first match is quoted in the reason.
     mechanics: tuple[str, ...] = ROBOT_ORDERS
+    #: Causes that make the robot do the opposite of an effect, as (effect pattern, cause
+    #: pattern, what the cause makes the robot do instead): a cause matching the second, of an
+    #: effect of the robot matching the first, is rejected after the judge ('a pedestrian steps
+    #: into the path' never makes a waiting ego-vehicle drive off). Searched with ``re.search``
+    #: in the lower-cased texts, in order (the first effect pattern that matches decides); only
+    #: effects that name the robot are tested.
+    opposites: tuple[tuple[str, str, str], ...] = ()
     #: entity judge: worked examples shown before each question whether an entity the model
     #: added takes part in an event, as (event, entity, "yes" or "no"); a few short ones of the
     #: domain, none from a labeled set

@@ -63,3 +63,41 @@ def test_the_edge_evaluation_applies_the_same_rules() -> None:
     model = ScriptedModel(causes={STOP: []})  # its judge says yes to every candidate
     got = judge_candidates(LLM(FunctionProvider(model)), "event->event", STOP, [far, near, cabin], domain="driving")
     assert got == {near}
+
+
+OPPOSITES = [  # (effect, cause, the cause's words quoted): the cause makes the ego do the opposite
+    ("the ego-vehicle drove off from a stop", "a pedestrian steps into the path of the ego-vehicle", "steps into"),
+    ("the ego-vehicle accelerates", "the car ahead brakes hard", "brakes hard"),
+    ("the ego-vehicle pulls away from the kerb", "the light turns red", "turns red"),
+    ("the ego-vehicle stopped abruptly", "the traffic light turned green", "turned green"),
+    ("the ego-vehicle waited at the junction", "the junction was clear", "junction was clear"),
+]
+NOT_OPPOSITES = [
+    ("the ego-vehicle drove off from a stop", "the traffic light turned green"),  # a drive-off, not a stop
+    ("the ego-vehicle drove off from a stop", "the car ahead started moving"),
+    ("the ego-vehicle stopped abruptly", "a child ran into the road after a ball"),
+    ("the ego-vehicle stopped abruptly", "a car ran the red light at the junction"),
+    ("the ego-vehicle changed lanes to the right", "a bus stopped at a bus stop in the ego's lane"),
+    ("a child ran into the road", "the traffic light turned green"),  # not the ego's effect
+]
+
+
+@pytest.mark.parametrize(("effect", "cause", "words"), OPPOSITES)
+def test_a_cause_that_makes_the_ego_do_the_opposite_is_ruled_out(effect: str, cause: str, words: str) -> None:
+    why = ruled_out("driving", cause, effect)
+    assert why is not None and why.startswith(f"makes the opposite happen ('{words}'")
+    assert ruled_out("driving", cause) is None  # without its effect, no opposite
+
+
+@pytest.mark.parametrize(("effect", "cause"), NOT_OPPOSITES)
+def test_causes_of_the_same_direction_are_left_to_the_judge(effect: str, cause: str) -> None:
+    assert ruled_out("driving", cause, effect) is None
+
+
+def test_manipulation_has_no_opposites_and_the_eval_judges_with_the_effect() -> None:
+    assert ruled_out("manipulation", "the light turned green", "the robot stopped the faucet") is None
+    drive_off = "the ego-vehicle drove off from a stop"
+    model = ScriptedModel(causes={drive_off: []})  # its judge says yes to every candidate
+    got = judge_candidates(LLM(FunctionProvider(model)), "event->event", drive_off,
+                           ["the traffic light turned green", "a pedestrian steps into the path"], domain="driving")
+    assert got == {"the traffic light turned green"}

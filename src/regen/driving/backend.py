@@ -45,6 +45,23 @@ _CABIN = (r"(?:radio|music|stereo|song|playlist|podcast|headlights?|headlamps?|h
           r"infotainment|touchscreen|cabin|cup\s+holder|passengers?)\b")
 
 
+#: effects of the ego moving off or speeding up, and causes that put something in its way
+_GOES = (r"\b(?:drives?\s+off|drove\s+off|driving\s+off|pulls?\s+away|pulled\s+away|pulling\s+away|"
+         r"accelerat\w*|speeds?\s+up|sped\s+up|speeding\s+up|sets?\s+off|moves?\s+off|moved\s+off|"
+         r"starts?\s+(?:moving|driving)|started\s+(?:moving|driving)|proceed\w*)\b")
+_HAZARD = (r"\b(?:steps?|stepped|stepping|runs?|ran|running|walks?|walked|walking|darts?|darted|jumps?|jumped|"
+           r"dashe?s?|dashed)\s+(?:out\s+)?(?:into|onto|in\s+front\s+of|across)\b"
+           r"|\b(?:in|into)\s+(?:the|its)\s+(?:ego(?:-vehicle)?'s\s+)?path\b"
+           r"|\bturn(?:s|ed|ing)?\s+(?:red|yellow|amber)\b"
+           r"|\b(?:brakes?|braked|braking|stops?|stopped|halts?|halted)\s+(?:suddenly|abruptly|hard|sharply)\b")
+#: effects of the ego stopping or slowing, and causes that clear its way
+_WAITS = (r"\b(?:stops?|stopped|stopping|brakes?|braked|braking|halts?|halted|slows?|slowed|slowing|"
+          r"reduced?\s+(?:its\s+)?speed|yields?|yielded|waits?|waited)\b")
+_GO_SIGNAL = (r"\bturn(?:s|ed|ing)?\s+green\b"
+              r"|\b(?:road|lane|way|path|junction|intersection|crossing|crosswalk)\s+(?:is\s+|was\s+|became\s+)?"
+              r"(?:clear|cleared|free|empty|open|opened|reopened)\b")
+
+
 class DrivingBackend(DomainBackend):
     name = "driving"
     database_resource = RESOURCE
@@ -101,6 +118,10 @@ class DrivingBackend(DomainBackend):
             # the ego's cabin, occupants and lamps: nothing on the road that it could react to
             r"(?:\bego(?:[- ](?:vehicle|car))?'s|\bthe\s+ego's)\s+(?:own\s+)?(?:\w+\s+)?" + _CABIN,
             _CABIN + r"\s+(?:in|inside|of)\s+the\s+ego\b",
+        ),
+        opposites=(
+            (_GOES, _HAZARD, "makes the ego-vehicle wait or brake, not drive on"),
+            (_WAITS, _GO_SIGNAL, "lets the ego-vehicle drive on, not stop or slow down"),
         ),
         # the ego's own words carry no meaning when telling causes apart
         stop_words=("ego", "vehicle"),

@@ -24,7 +24,7 @@ from regen.expand.answers import EdgeVerdict, EntitySelection, EventProposal, Ye
 from regen.expand.calibration import ANSWER_PREFIX, threshold_for
 from regen.expand.choices import Choices, alternatives, choice_models, dependent, only_names
 from regen.expand.dedupe import normalize, similar
-from regen.expand.rules import happens_elsewhere
+from regen.expand.rules import happens_elsewhere, opposite_of
 from regen.llm.client import LLM
 from regen.templates import render
 
@@ -144,15 +144,17 @@ def restates_mechanics(domain: Domain, cause: str) -> str | None:
     return None
 
 
-def ruled_out(domain: Domain, cause: str) -> str | None:
-    """Why a rule rejects ``cause`` whatever the judge says, or None: it restates the robot's own
-    command, programming or mechanics, or it happens somewhere else (:mod:`regen.expand.rules`)."""
+def ruled_out(domain: Domain, cause: str, effect: str | None = None) -> str | None:
+    """Why a rule rejects ``cause`` (of ``effect``) whatever the judge says, or None: it is the
+    robot's own doing, happens elsewhere or makes the opposite happen (:mod:`regen.expand.rules`)."""
     domain = domain_view(domain)
     if words := restates_mechanics(domain, cause):
         return (f"restates the {domain.robot}'s own command, programming or mechanics ('{words}'), "
                 "not a context in which it acts")
     if words := happens_elsewhere(cause):
         return f"happens somewhere else ('{words}'): too far away to cause what the {domain.robot} does"
+    if effect and (got := opposite_of(cause, effect, domain.wording.opposites, domain.robot_names)):
+        return f"makes the opposite happen ('{got[0]}' {got[1]})"
     return None
 
 
@@ -463,7 +465,7 @@ def judge_candidates(llm: LLM, kind: str, source: str, candidates: list[str], *,
     domain = domain_view(domain)
     if kind == "event->event":  # as expansion decides: the judge, then the rules (ruled_out)
         return {c for c in judge_events(llm, domain, chain, candidates).accepted
-                if ruled_out(domain, c) is None}
+                if ruled_out(domain, c, source) is None}
     if kind == "entity->event":
         db = database or domain.database()
         return {a for a in select_entities(llm, db, domain, chain).accepted if a in candidates}

@@ -138,10 +138,10 @@ class Expander:
             plausible = cand in judged.accepted
             opinion = judged.accepted[cand] if plausible else judged.rejected.get(cand, "not chosen")
             if cand in insisted:
-                if self._accept(graph, node, nid, self._insisted(domain, cand, plausible, opinion,
+                if self._accept(graph, node, nid, self._insisted(domain, cand, src.label, plausible, opinion,
                                                                  judged.call_for(cand))):
                     new_ids.append(node.id)
-            elif plausible and (why := edges.ruled_out(domain, cand)):
+            elif plausible and (why := edges.ruled_out(domain, cand, src.label)):
                 # the judge accepted it, but it is the robot's own doing or happens elsewhere
                 said = Decision(action="accepted", by="model", call_id=judged.call_for(cand), reason=opinion)
                 self._reject(graph, node, nid, said)
@@ -156,12 +156,12 @@ class Expander:
         return new_ids
 
     @staticmethod
-    def _insisted(domain: edges.DomainView, cand: str, plausible: bool, opinion: str,
+    def _insisted(domain: edges.DomainView, cand: str, effect: str, plausible: bool, opinion: str,
                   call_id: str | None) -> Decision:
         """The user's acceptance of a cause given with --cause, carrying the judge's opinion."""
         reason = (f"given with --cause, accepted without judging; the judge said it is "
                   f"{'plausible' if plausible else 'implausible'}: {opinion}")
-        if why := edges.ruled_out(domain, cand):
+        if why := edges.ruled_out(domain, cand, effect):
             reason += f"; a rule would have rejected it: it {why}"
         return Decision(action="accepted", by="user", call_id=call_id, reason=reason)
 

@@ -5,7 +5,9 @@ alone. A cause that happens somewhere else ("a jaywalker in another city", "a cy
 across the river", the paper's own example of an implausible edge) cannot directly cause what
 the robot does here. These rules only ever reject: a cause they do not match is left to the
 judge. The robot's own command, programming or mechanics is the domain's rule
-(:attr:`regen.contract.Wording.mechanics`).
+(:attr:`regen.contract.Wording.mechanics`), and so are the causes that make the robot do the
+opposite of what it did (:attr:`regen.contract.Wording.opposites`), which :func:`opposite_of`
+applies.
 
 Imports: nothing of the toolkit.
 """
@@ -13,6 +15,7 @@ Imports: nothing of the toolkit.
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 
 _PLACE = (r"(?:city|town|country|state|province|village|district|neighbou?rhood|suburb|street|road|"
           r"highway|motorway|freeway|continent|region|county|planet|part\s+of\s+(?:town|the\s+city|the\s+country))")
@@ -37,4 +40,21 @@ def happens_elsewhere(cause: str) -> str | None:
     for rx in ELSEWHERE:
         if m := rx.search(text):
             return m.group(0).strip()
+    return None
+
+
+def opposite_of(cause: str, effect: str, opposites: Sequence[tuple[str, str, str]],
+                robot_names: Sequence[str]) -> tuple[str, str] | None:
+    """(the cause's words, what they make the robot do instead) when ``cause`` makes the robot do
+    the opposite of ``effect`` by one of ``opposites`` (a domain's ``Wording.opposites``, tried in
+    order: the first whose effect pattern matches decides, so 'drove off from a stop' is a
+    drive-off); only an effect that names the robot (one of ``robot_names``) is tested."""
+    said = " ".join(effect.lower().replace("\u2019", "'").split())
+    if not any(name.lower() in said for name in robot_names):
+        return None
+    text = " ".join(cause.lower().replace("\u2019", "'").split())
+    for effect_rx, cause_rx, instead in opposites:  # the first kind of effect it is decides
+        if re.search(effect_rx, said):
+            m = re.search(cause_rx, text)
+            return (m.group(0).strip(), instead) if m else None
     return None

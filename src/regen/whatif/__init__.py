@@ -263,7 +263,7 @@ def judge_root(llm: LLM, domain: str, events: list[str]) -> dict[str, Any]:
         return {"by": "none", "plausible": None, "reason": "the chain has no cause event"}
     root, chain = events[0], events[1:]
     judged = judge_events(llm, domain, chain, [root])
-    ruled = ruled_out(domain, root)
+    ruled = ruled_out(domain, root, chain[0])
     ok = root in judged.accepted and ruled is None
     reason = ruled or judged.accepted.get(root) or judged.rejected.get(root, "")
     return {"by": f"model ({llm.provider.id})", "plausible": ok, "reason": reason,
