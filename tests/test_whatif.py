@@ -153,14 +153,22 @@ def test_a_cause_the_judge_rejects_no_longer_explains_the_behavior(tmp_path, mon
     folder = tmp_path / "run" / "scenarios" / "01-red-light"
     red = chain("stop_abruptly", "the traffic light ahead turns red", ("traffic_light", {"light_state": ["turns_red"]}))
     assert run_path(red, folder, pictures=False).verdict.feasible
-    _queued(monkeypatch, {"answer": "no", "reason": "a green light does not make a car stop"})
+    _queued(monkeypatch, {"answer": "yes", "reason": "a light makes cars stop"})  # a judge that says yes
     res = _whatif(folder, "--set", "traffic_light1.light_state=green", "--llm", "queued", "--no-pictures", judge=True)
     assert res.exit_code == 0, res.output
     _, record = _record(res)
     # the scripted ego stops whatever the light shows: the simulation alone would call it explained
     assert record["status"].startswith("verified") and not record["explained"]
-    assert record["judged"]["plausible"] is False and "green light does not make a car stop" in record["reason"]
+    # the rule against causes that make the ego do the opposite decides, whatever the judge said
+    assert record["judged"]["plausible"] is False
+    assert "makes the opposite happen ('turns green'" in record["reason"]
     assert "no longer explained" in res.output
+    # where no rule decides, the judge's no does
+    _queued(monkeypatch, {"answer": "no", "reason": "a yellow light gives time to pass"})
+    res = _whatif(folder, "--set", "traffic_light1.light_state=yellow", "--llm", "queued", "--no-pictures", judge=True)
+    assert res.exit_code == 0, res.output
+    _, record = _record(res)
+    assert record["judged"]["plausible"] is False and record["reason"].endswith("a yellow light gives time to pass")
 
 
 @pytest.mark.parametrize(("args", "words"), [

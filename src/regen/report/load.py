@@ -216,6 +216,9 @@ def load_run(run_dir: Path, manifest: dict[str, Any] | None = None) -> RunView:
     listed = view.run_field("scenarios")
     view.stray = [str(n) for n in listed if str(n) not in folders] if isinstance(listed, list) else []
     view.scenarios = [load_scenario(run, f, i) for i, f in enumerate(folders, start=1)]
+    if view.behavior is None:  # a folder of hand-written chains: its scenarios name the domain
+        domain = next((sv.scenario.domain for sv in view.scenarios if sv.scenario is not None), None)
+        view.hints = _hints(domain)
     from regen.report.tests_view import load_tests  # it reads this module's views
 
     view.tests = load_tests(run.path, view.scenarios, view.behavior.text if view.behavior else "")
