@@ -10,7 +10,7 @@ person (a car has its driver, a bicycle its rider).
 A word names an actor of the cause, not its owner or a past doer: 'grandma's glasses' and 'the
 toys left by the children' need no person in the scene.
 
-Imports: the shared core only.
+Imports: the shared core and the assets' name rules only.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 
+from regen.assets.names import without_robot
 from regen.core.words import singular, surface_words
 
 #: Words (singular, lower case) that name a person.
@@ -53,10 +54,7 @@ def beings_named(text: str, *, exclude: str | Sequence[str] = ()) -> dict[str, s
     """Kind -> the first word of ``text`` that names a being of that kind as an actor of the
     cause. Skipped: possessives ('grandma's book'), doers after 'by' ('left by the children'),
     and the phrases of ``exclude`` (what the domain calls its robot)."""
-    raw = " ".join(text.lower().replace("\u2019", "'").split())
-    for phrase in ([exclude] if isinstance(exclude, str) else list(exclude)):
-        if phrase:
-            raw = raw.replace(phrase.lower(), " ")
+    raw = without_robot(text, [exclude] if isinstance(exclude, str) else list(exclude))
     raw = re.sub(r"\b[a-z]+s?'s?(?=\s|$)", " ", raw)  # possessives: their owner is not in the scene
     raw = re.sub(r"\bby\s+(?:(?:the|a|an|my|our|his|her|their|its)\s+)?[a-z]+", " ", raw)
     out: dict[str, str] = {}

@@ -10,7 +10,7 @@ from difflib import SequenceMatcher
 from functools import lru_cache
 from typing import Any
 
-from regen.core.words import STOPWORDS, name_words
+from regen.core.words import STOPWORDS, lowered, name_words
 
 #: Least similarity (0-1) at which a model-written entity name is taken for an asset.
 MATCH_THRESHOLD = 0.75
@@ -43,7 +43,7 @@ _PLACE_AFTER = ("ahead", "in front", "in the", "in its", "behind", "next", "besi
 
 def without_robot(text: str, names: list[str]) -> str:
     """``text`` with every phrase that names the robot itself blanked (longest first)."""
-    out = " ".join(text.lower().replace("\u2019", "'").split())
+    out = lowered(text)
     place = "|".join(re.escape(p) for p in _PLACE_AFTER)
     for name in sorted((n.lower() for n in names if n.strip()), key=len, reverse=True):
         pattern = rf"(?<![\w-]){re.escape(name)}(?![\w-])"

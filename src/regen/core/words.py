@@ -18,6 +18,12 @@ IRREGULAR_PLURALS = {"children": "child", "people": "person", "men": "man", "wom
                      "policemen": "policeman", "policewomen": "policewoman"}
 
 
+def lowered(text: str) -> str:
+    """``text`` as the rules search it: lower case, a typographic apostrophe as a plain one,
+    single spaces."""
+    return " ".join(text.lower().replace("\u2019", "'").split())
+
+
 def singular(word: str) -> str:
     """``word`` without a plural ending (a rule and a few irregular plurals, not a dictionary:
     'benches' -> 'bench', 'children' -> 'child')."""

@@ -17,7 +17,7 @@ from pydantic import Field, create_model
 from regen.assets.database import MATCH_THRESHOLD, AssetDatabase
 from regen.core.base import Answer
 from regen.core.behavior import Behavior
-from regen.core.words import name_words
+from regen.core.words import lowered, name_words
 from regen.embeddings import optional_encoder
 from regen.errors import ConfigError
 from regen.expand.answers import EdgeVerdict, EntitySelection, EventProposal, YesNo
@@ -137,7 +137,7 @@ def robot_word(domain: Domain) -> str:
 def restates_mechanics(domain: Domain, cause: str) -> str | None:
     """The words of ``cause`` that restate the robot's own command, programming, sensors or
     mechanics (the domain's ``Wording.mechanics``), or None for a context of the world."""
-    text = " ".join(cause.lower().replace("\u2019", "'").split())
+    text = lowered(cause)
     for rx in domain_view(domain).mechanics:
         if m := rx.search(text):
             return m.group(0).strip() or text

@@ -142,7 +142,7 @@ class Expander:
                                                                  judged.call_for(cand))):
                     new_ids.append(node.id)
             elif plausible and (why := edges.ruled_out(domain, cand, src.label)):
-                # the judge accepted it, but it is the robot's own doing or happens elsewhere
+                # the judge accepted it, but a rule rejects it (expand.edges.ruled_out)
                 said = Decision(action="accepted", by="model", call_id=judged.call_for(cand), reason=opinion)
                 self._reject(graph, node, nid, said)
                 self._reject(graph, node, nid, Decision(action="rejected", by="rule", reason=why))

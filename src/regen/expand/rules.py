@@ -9,13 +9,15 @@ judge. The robot's own command, programming or mechanics is the domain's rule
 opposite of what it did (:attr:`regen.contract.Wording.opposites`), which :func:`opposite_of`
 applies.
 
-Imports: nothing of the toolkit.
+Imports: the shared core only.
 """
 
 from __future__ import annotations
 
 import re
 from collections.abc import Sequence
+
+from regen.core.words import lowered
 
 _PLACE = (r"(?:city|town|country|state|province|village|district|neighbou?rhood|suburb|street|road|"
           r"highway|motorway|freeway|continent|region|county|planet|part\s+of\s+(?:town|the\s+city|the\s+country))")
@@ -36,7 +38,7 @@ ELSEWHERE: tuple[re.Pattern[str], ...] = tuple(re.compile(p) for p in (
 
 def happens_elsewhere(cause: str) -> str | None:
     """The words that place ``cause`` somewhere other than where the robot acts, or None."""
-    text = " ".join(cause.lower().replace("\u2019", "'").split())
+    text = lowered(cause)
     for rx in ELSEWHERE:
         if m := rx.search(text):
             return m.group(0).strip()
@@ -49,10 +51,10 @@ def opposite_of(cause: str, effect: str, opposites: Sequence[tuple[str, str, str
     the opposite of ``effect`` by one of ``opposites`` (a domain's ``Wording.opposites``, tried in
     order: the first whose effect pattern matches decides, so 'drove off from a stop' is a
     drive-off); only an effect that names the robot (one of ``robot_names``) is tested."""
-    said = " ".join(effect.lower().replace("\u2019", "'").split())
+    said = lowered(effect)
     if not any(name.lower() in said for name in robot_names):
         return None
-    text = " ".join(cause.lower().replace("\u2019", "'").split())
+    text = lowered(cause)
     for effect_rx, cause_rx, instead in opposites:  # the first kind of effect it is decides
         if re.search(effect_rx, said):
             m = re.search(cause_rx, text)

@@ -95,6 +95,17 @@ def check_rules(scenario: Scenario, db: AssetDatabase, *, robot: str | Sequence[
             if not any(e.asset == m.asset or db.answers_to(e.asset, m.key) for e in cast):
                 said = f"'{m.phrase}', a close paraphrase of " if m.phrase else ""
                 missing.append(f"'{event}' names {said}a {m.key.replace('_', ' ')}")
+        # 6. a person or an animal the words name, whatever asset plays them; where an asset of
+        # that kind is named, rule 1 holds it to that asset
+        by_asset = {k for m in by_name for k in db.kinds_of(m.asset)}
+        for kind, word in db.beings_in(event, exclude=robot).items():
+            if kind in by_asset:
+                continue
+            if any(kind in db.kinds_of(e.asset) for e in cast):
+                named.append(f"a {kind} ('{word}')")
+            else:
+                missing.append(f"'{event}' names {'an' if kind[0] in 'aeiou' else 'a'} {kind} ('{word}'), "
+                               f"and no entity of the scenario is one")
         motions = db.named_motions(event, robot=robot)
         if motions and not any(set(motions) & set(db.assets[e.asset].behaviors) for e in cast):
             said = ", ".join(f"'{ph}' ({m})" for m, ph in motions.items())
@@ -122,16 +133,6 @@ def check_rules(scenario: Scenario, db: AssetDatabase, *, robot: str | Sequence[
                 named.append(f"{e.name}.{prop} = {state}")
                 if have is not None and state not in during:
                     wrong.append(f"'{phrase}' names {prop} = {state}, {e.name} has {prop} = {have}")
-    for event in causes:  # 6. a person or an animal the words name, whatever asset plays them
-        by_asset = {k for m in db.named_in(event, exclude=robot, skip=own) for k in db.kinds_of(m.asset)}
-        for kind, word in db.beings_in(event, exclude=robot).items():
-            if kind in by_asset:  # an asset of that kind is named: rule 1 holds it to that asset
-                continue
-            if any(kind in db.kinds_of(e.asset) for e in cast):
-                named.append(f"a {kind} ('{word}')")
-            else:
-                missing.append(f"'{event}' names {'an' if kind[0] in 'aeiou' else 'a'} {kind} ('{word}'), "
-                               f"and no entity of the scenario is one")
     if missing or wrong:
         return Fidelity(status="unfaithful", named=named, shown=shown,
                         reason="; ".join(missing + wrong) + f"; the scenario shows {', '.join(shown)}")
