@@ -145,6 +145,22 @@ def test_named_states_take_the_longest_phrase_and_must_be_states(tmp_path: Path)
         load_database(_write(tmp_path, data))
 
 
+def test_an_asset_implies_states_of_its_own_properties_only(tmp_path: Path) -> None:
+    data = _minimal()
+    asset = next(iter(data["assets"]))
+    data["assets"][asset]["implies"] = {"siren": {"wailing": ["siren wails"]}}
+    with pytest.raises(AssetDatabaseError, match=rf"assets.{asset}.implies.siren\[0\]: unknown state 'wailing'"):
+        load_database(_write(tmp_path, data))
+    data["assets"][asset]["implies"] = {"no_such_property": {"on": ["x"]}}
+    with pytest.raises(AssetDatabaseError, match="'no_such_property' is not a property"):
+        load_database(_write(tmp_path, data))
+    data["properties"]["siren"]["named_by"] = {"off": ["siren off"]}
+    data["assets"][asset]["implies"] = {"siren": {"on": ["flashing blue"]}}
+    db = load_database(_write(tmp_path, data))
+    assert db.named_state(asset, "siren", "a car flashing blue comes up behind") == ("on", "flashing blue")
+    assert db.named_state(asset, "siren", "a car with its siren off") == ("off", "siren off")  # both kept
+
+
 def test_behavior_phrases_name_a_motion_only_the_asset_can_make_and_ambiguity_binds_nothing():
     from regen.driving.assets import database as driving
 

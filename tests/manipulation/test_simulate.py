@@ -82,3 +82,26 @@ def test_failed_behavior_gives_a_verdict_with_the_stage(tmp_path):
     assert ground_stage(ClosedWindow(), path, None, folder) is None
     verdict = Verdict.model_validate(simulate_stage("manipulation", str(folder.path), False)["verdict"])
     assert verdict.status == "fsm_incomplete" and verdict.first_unmet_stage == 1
+
+
+@pytest.mark.slow
+def test_a_device_the_graph_turns_on_is_drawn_lit_and_recorded_on(tmp_path):
+    from regen.manipulation.scene import POWERED_ON, PROXY_STYLE, Scene
+    from regen.manipulation.simulate import layout_from_scenario
+
+    b = BEHAVIORS["open_door"]
+    event = "the tv show behind the door is too loud"
+    for power in ("on", "off"):
+        path = CausePath(behavior=Behavior(text=b.text, domain="manipulation", params={"reward": b.id}),
+                         events=[event, b.text],
+                         entities=[PathEntity(asset="tv", event=event, properties={"power": [power]})])
+        out = run_path(path, tmp_path / power, seed=0, pictures=False)
+        tv = next(e for e in out.scenario().entities if e.asset == "tv")
+        assert tv.properties["power"] == power
+        assert set(out.trace().actors[tv.name].states["power"]) == {power}
+        # the words name a tv that is on: only the scenario that shows it is verified
+        assert (out.verdict.status == "verified") == (power == "on"), out.verdict.reason
+        with Scene(layout_from_scenario(out.scenario())[0], use_meshes=False) as scene:
+            rgba = scene._call("getVisualShapeData", scene.bodies[tv.name].id)[0][7]
+        want = POWERED_ON["tv"] if power == "on" else PROXY_STYLE["tv"][0]
+        assert tuple(round(c, 2) for c in rgba) == want

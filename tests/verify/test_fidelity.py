@@ -156,16 +156,32 @@ def test_a_pedestrian_that_steps_onto_the_road_must_cross_not_walk_along() -> No
     assert _fidelity(across).status == "faithful"
 
 
-def _door(event: str, assets: list[str]):
-    """'the robot opens the door' because of ``event``, grounded by the rules with ``assets``."""
+def _door(event: str, assets: list[str], properties: dict[str, dict[str, list[str]]] | None = None):
+    """'the robot opens the door' because of ``event``, grounded by the rules with ``assets``
+    (and the graph's ``properties`` of some of them)."""
     from regen.core import Behavior, CausePath, PathEntity
     from regen.manipulation.behaviors import BEHAVIORS
     from regen.manipulation.grounding import ground_path
 
     b = BEHAVIORS["open_door"]
     path = CausePath(behavior=Behavior(text=b.text, domain="manipulation", params={"reward": b.id}),
-                     events=[event, b.text], entities=[PathEntity(asset=a, event=event) for a in assets])
+                     events=[event, b.text],
+                     entities=[PathEntity(asset=a, event=event, properties=(properties or {}).get(a, {}))
+                               for a in assets])
     return ground_path(path, None, seed=0, relax=False)
+
+
+def test_a_state_the_words_imply_for_one_asset_binds_that_asset_only() -> None:
+    manip = domains.make("manipulation")
+    db, robot, own = manip.database(), manip.report_hints.robot, frozenset({"door"})
+    show = "the tv show behind the door is too loud"  # a show is a tv that is on
+    f = check_rules(_door(show, ["tv"], {"tv": {"power": ["off"]}}), db, robot=robot, own=own)
+    assert f.status == "unfaithful" and "'tv show' names power = on" in f.reason
+    assert check_rules(_door(show, ["tv"], {"tv": {"power": ["on"]}}), db, robot=robot, own=own).status == "faithful"
+    assert db.named_states("desk_lamp", "power", show) == {}  # a lamp has no show
+    # 'is on the desk' is a place, not the power: the state phrases are whole and explicit
+    assert db.named_states("laptop", "power", "the laptop is on the desk by the door") == {}
+    assert db.named_state("window", "articulation", "the window was left ajar") == ("half_open", "ajar")
 
 
 def test_a_person_or_animal_named_in_words_no_asset_has_must_be_shown() -> None:

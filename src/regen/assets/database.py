@@ -46,6 +46,9 @@ class AssetSpec(Model):
     #: members of a group asset, which moves as one body of ``size`` (a queue of cars): pictures
     #: draw it as that many
     count: int = Field(default=1, ge=1, le=12)
+    #: states that words name for this asset only, as property -> state -> phrases ('a tv show'
+    #: is a tv that is on; a lamp has no show): merged with the property's own ``named_by``
+    implies: dict[str, dict[str, list[str]]] = Field(default_factory=dict)
 
 
 class PropertySpec(Model):
@@ -86,6 +89,12 @@ class AssetDatabase(Naming, Model):
         for aid, spec in self.assets.items():
             problems += _unknown(f"assets.{aid}.properties", spec.properties, self.properties, "property")
             problems += _unknown(f"assets.{aid}.behaviors", spec.behaviors, self.behaviors, "behavior")
+            for prop, states in spec.implies.items():
+                if prop not in spec.properties or prop not in self.properties:
+                    problems.append(f"assets.{aid}.implies: {prop!r} is not a property of {aid}")
+                    continue
+                problems += _unknown(f"assets.{aid}.implies.{prop}", list(states),
+                                     dict.fromkeys(self.properties[prop].states or []), "state")
         for bid, spec in self.behaviors.items():
             problems += _unknown(f"behaviors.{bid}.parameters", spec.parameters, self.properties, "property")
         if "behavior" in self.properties and self.properties["behavior"].states is not None:
@@ -174,7 +183,10 @@ class AssetDatabase(Naming, Model):
         # a motion the asset cannot make is another actor's ('a car waits for a child crossing
         # the road': crossing is the child's); 'broken-down' is 'broken down' (plain)
         able = set(self.assets[asset].behaviors) if prop == "behavior" else None
-        states = {st: phs for st, phs in self.properties[prop].named_by.items() if able is None or st in able}
+        named_by = dict(self.properties[prop].named_by)
+        for st, phs in self.assets[asset].implies.get(prop, {}).items():
+            named_by[st] = [*named_by.get(st, []), *phs]
+        states = {st: phs for st, phs in named_by.items() if able is None or st in able}
         out: dict[str, str] = {}
         for _, st, ph in phrases_in(event, {prop: states}):  # longest first
             out.setdefault(st, ph)

@@ -157,6 +157,7 @@ def ground_path(path: CausePath, llm: object | None = None, *, seed: int = 0, re
     item_asset = behavior.item.asset if behavior.item and behavior.script != "carry" else None
     context: list[tuple[str, str, tuple[float, float, float]]] = []
     counts: dict[str, int] = {}
+    powers: dict[str, str] = {}  # asset -> the power state the graph chose for it
     substituted = False
     for pe in path.entities:
         asset = pe.asset
@@ -181,6 +182,9 @@ def ground_path(path: CausePath, llm: object | None = None, *, seed: int = 0, re
                 item_asset, substituted = asset, True
                 continue
         counts[asset] = counts.get(asset, 0) + 1
+        power = pe.properties.get("power") if "power" in db.parameters_of(asset) else None
+        if power and power[0] in (db.properties["power"].states or ()):
+            powers.setdefault(asset, power[0])  # the graph's choice: a tv that is on shows its screen lit
         if any(a == asset for _, a, _ in context):
             continue  # one of each: the path often names an entity for several events
         context.append((f"{asset}{counts[asset]}", asset, tuple(db.assets[asset].size)))
@@ -239,7 +243,7 @@ def ground_path(path: CausePath, llm: object | None = None, *, seed: int = 0, re
     if not narrative:
         narrative = _narrative(path, behavior, requests)
     return _scenario(path, behavior, fname, item_name, item_asset, item_size, geometry, requests,
-                     result, narrative, relaxations, fallbacks, seed)
+                     result, narrative, relaxations, fallbacks, seed, powers)
 
 
 def _ask(llm: object, path: CausePath, behavior: BehaviorDef, geometry, context) -> GroundAnswer:
@@ -301,7 +305,8 @@ def relation_call(obj: str, relation: str, reference: str) -> PredicateCall:
 
 def _scenario(path, behavior: BehaviorDef, fname: str, item_name, item_asset, item_size, geometry,
               requests: list[Request], result: PlacementResult, narrative: str,
-              relaxations: list[str], fallbacks: list[str], seed: int) -> Scenario:
+              relaxations: list[str], fallbacks: list[str], seed: int,
+              powers: dict[str, str] | None = None) -> Scenario:
     fx, fy = behavior.pose
     entities = [Entity(name="robot", asset="franka_panda", kind="robot", properties={"role": "robot"},
                        behavior=behavior.id),
@@ -322,8 +327,10 @@ def _scenario(path, behavior: BehaviorDef, fname: str, item_name, item_asset, it
         params[item_name] = {"x": ix, "y": iy, "z": iz, "length": item_size[0],
                              "width": item_size[1], "height": item_size[2], "dynamic": True}
     for r in requests:
+        power = (powers or {}).get(r.asset)
         entities.append(Entity(name=r.name, asset=r.asset, kind="object",
-                               properties={"role": "context", "location": f"{r.relation} {r.reference}"},
+                               properties={"role": "context", "location": f"{r.relation} {r.reference}",
+                                           **({"power": power} if power else {})},
                                behavior="stationary", behavior_params={"relation": r.relation,
                                                                        "reference": r.reference}))
         p = result.placed.get(r.name)
@@ -331,7 +338,7 @@ def _scenario(path, behavior: BehaviorDef, fname: str, item_name, item_asset, it
             params[r.name] = {"x": round(p.x, 3), "y": round(p.y, 3), "z": round(p.z, 3),
                               "length": r.size[0], "width": r.size[1], "height": r.size[2],
                               "dynamic": p.dynamic, "relation": r.relation, "reference": r.reference,
-                              "support": p.support}
+                              "support": p.support, **({"power": power} if power else {})}
     fsm = build_fsm(behavior, fname, item_name, requests)
     status = result.status if result.status in ("optimal", "feasible", "infeasible", "model_invalid",
                                                  "unknown") else "unknown"

@@ -50,6 +50,7 @@ class ObjectPlacement:
     size: Vec3  # length, width, height [m]
     dynamic: bool = False  # context objects are static; task items and riders are dynamic
     label: str = ""
+    power: str | None = None  # a device's state ('on': its screen or bulb drawn lit)
 
 
 @dataclass
@@ -72,6 +73,7 @@ class Body:
     origin: Vec3 = (0.0, 0.0, 0.0)  # where the furniture frame sits [m]
     size: Vec3 = (0.0, 0.0, 0.0)  # extents [m]
     cavity_closed_link_pos: Vec3 | None = None  # where the cavity link was when the cavity was measured
+    power: str | None = None  # a context device's power state, as drawn
 
 
 # Colours and shapes of the proxies (things pybullet_data has no mesh for).
@@ -86,6 +88,10 @@ PROXY_STYLE: dict[str, tuple[RGBA, str]] = {
     "toy": ((0.95, 0.3, 0.6, 1), "box"), "cup": ((0.9, 0.25, 0.2, 1), "cylinder"),
     "visitor": ((0.55, 0.3, 0.6, 1), "cylinder"), "spill": ((0.85, 0.55, 0.1, 0.9), "box"),
     "mop": ((0.85, 0.8, 0.6, 1), "cylinder"), "ingredients": ((0.9, 0.8, 0.5, 1), "box"),
+}
+#: a device that is on is drawn lit (a bright screen, a glowing bulb); off, in PROXY_STYLE's colour
+POWERED_ON: dict[str, RGBA] = {
+    "tv": (0.35, 0.7, 1.0, 1), "laptop": (0.55, 0.8, 1.0, 1), "desk_lamp": (1.0, 1.0, 0.65, 1),
 }
 
 # pybullet_data meshes: file, orientation (roll, pitch, yaw) [rad], global scale.
@@ -192,13 +198,16 @@ class Scene:
                 self._call("changeDynamics", bid, -1, mass=mass)
         else:
             rgba, shape = PROXY_STYLE.get(o.asset, ((0.6, 0.6, 0.6, 1), "box"))
+            if o.power == "on":
+                rgba = POWERED_ON.get(o.asset, rgba)
             path = self._write(o.name, proxy_urdf(o.name, o.size, rgba, shape=shape, mass=mass))
             bid = self._call("loadURDF", path, basePosition=[o.x, o.y, o.z + 0.001],
                              useFixedBase=not o.dynamic)
             size = o.size
         if o.dynamic:
             self._call("changeDynamics", bid, -1, lateralFriction=1.0)
-        self.bodies[o.name] = Body(o.name, bid, "object", o.asset, origin=(o.x, o.y, o.z), size=size)
+        self.bodies[o.name] = Body(o.name, bid, "object", o.asset, origin=(o.x, o.y, o.z), size=size,
+                                   power=o.power)
 
     # --- queries ------------------------------------------------------------------------------
 

@@ -66,7 +66,8 @@ def layout_from_scenario(scenario: Scenario) -> tuple[SceneLayout, Roles]:
             layout.objects.append(ObjectPlacement(
                 e.name, e.asset, float(par["x"]), float(par["y"]), float(par.get("z", 0.0)),
                 (float(par["length"]), float(par["width"]), float(par["height"])),
-                dynamic=bool(par.get("dynamic", False)), label=e.name))
+                dynamic=bool(par.get("dynamic", False)), label=e.name,
+                power=str(par["power"]) if par.get("power") else None))
         if role == "target":
             target = e.name
         elif role == "item":
@@ -128,6 +129,8 @@ class Recorder:
             for k, v in zip(("x", "y", "z"), centre, strict=True):
                 self._put(name, k, round(v, 4))
             self._put(name, "heading", round(s.yaw(name), 4))
+            if b.power is not None:  # a context device keeps the state it is drawn in
+                self._put(name, "power", b.power)
             if self.watch:
                 self._put(name, "tilt", round(s.tilt(name), 4))
             if b.kind == "furniture" and b.spec is not None:
