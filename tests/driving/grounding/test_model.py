@@ -249,6 +249,24 @@ def test_fsm_that_can_never_hold_is_reasked():
     assert sc.fsm_source == "model+rules" and sc.fallbacks[0].startswith("cause stages added by rules: ")
 
 
+def test_a_state_name_that_claims_more_than_its_calls_is_renamed_and_noted():
+    roles = {"narrative": "An ambulance with its siren on overtakes the ego."}
+    claims = fsm(_state(1, "ambulance1", "approaching", "behind(ambulance1, ego)", "siren_on(ambulance1)"),
+                 _state(2, "ego", "braking", "braking(ego, min_decel=4)"),
+                 _state(3, "ambulance1", "crashed_into_ego", "ahead_of(ambulance1, ego)"),
+                 _state(3, "ego", "not_colliding", "slower_than(ego, max_speed=5)"))
+    llm, _ = _llm(roles, claims)
+    sc = ground_with_model(AMBULANCE, llm)
+    names = [s.name for s in sc.fsm.states]
+    # nothing collided: the name says so no more; a braking state that brakes keeps its name,
+    # and a name that denies a collision claims none
+    assert "crashed_into_ego" not in names and {"ahead_of_ego", "braking", "not_colliding"} <= set(names)
+    assert ("ambulance1", "ahead_of_ego") in {p for stage in sc.fsm.as_tuples() for p in stage}
+    note = next(f for f in sc.fallbacks if f.startswith("state names replaced by rules: "))
+    assert "'crashed_into_ego' renamed 'ahead_of_ego' (the name claims a collision" in note
+    assert "not_colliding" not in note
+
+
 def test_hostile_narrative_is_kept_as_data_and_escaped_in_scenic():
     hostile = 'x"""\nimport os\nos.system("rm -rf /") # {{ evil }} \\'
     llm, _ = _llm(dict(CHILD_ROLES, narrative=hostile), CHILD_FSM)

@@ -13,6 +13,7 @@ before the ego's reaction, so no FSM can be accepted without its cause having pl
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 
 from regen.core.scenario import FSM, AbstractState, PredicateCall, Stage, StateRef
@@ -25,6 +26,7 @@ from regen.verify.predicates import get_predicate
 
 Calls = list[PredicateCall]
 CAUSES_ADDED = "cause stages added by rules: "  # how the note of cause stages added to an FSM starts
+RENAMED = "state names replaced by rules: "  # how the note of model-written state names replaced starts
 
 
 def ego_states(t: EgoTemplate) -> tuple[State, list[State]]:
@@ -192,5 +194,62 @@ def with_cause_states(fsm: FSM, roles: list[RoleChoice], t: EgoTemplate) -> tupl
     return FSM(states=list(states.values()), stages=out), added
 
 
-__all__ = ["CAUSES_ADDED", "actor_states", "cause_states", "ego_states", "entails", "is_reaction",
-           "rule_based_fsm", "with_cause_states"]
+#: words of a state name that claim what only these predicates show (a model names a state
+#: "colliding" while its calls say close_to and on_road): (pattern, predicates, what it claims)
+_CLAIMS: tuple[tuple[str, frozenset[str], str], ...] = (
+    (r"collid|collision|crash|\bhit|_hit|impact", frozenset({"collided", "collides", "collision"}),
+     "a collision"),
+    (r"brak", frozenset({"braking"}), "braking"),
+    (r"accelerat|speeding_up", frozenset({"accelerating"}), "accelerating"),
+    (r"chang\w*_lanes?|lane_chang|merg|swerv|cut\w*_in", frozenset({"changing_lane"}), "a lane change"),
+)
+_DENIED = r"(?:^|_)(?:no|not|non|avoid\w*|without|near|almost|pre|before|after|about_to|un)(?:_|$)"
+
+
+def _unclaimed(name: str, calls: Calls) -> str | None:
+    """What a state's name claims that none of its (positive) calls shows, or None."""
+    key = "_".join(re.findall(r"[a-z0-9]+", name.lower()))
+    if re.search(_DENIED, key):
+        return None
+    held = {c.name for c in calls if not c.negate}
+    for pattern, needs, what in _CLAIMS:
+        if re.search(pattern, key) and not held & needs:
+            return what
+    return None
+
+
+def honest_names(fsm: FSM) -> tuple[FSM, list[str]]:
+    """``fsm`` with each state whose model-written name claims what its predicates do not show
+    renamed after its predicates ('colliding' holding close_to(bicycle1, ego) and on_road(bicycle1)
+    becomes 'close_to_ego_on_road'), and one note per rename. Names are labels (the calls are the
+    meaning), but pictures and reports show them, and a verified scenario must not read
+    'colliding' where nothing collided."""
+    renamed: dict[tuple[str, str], str] = {}
+    notes: list[str] = []
+    taken = {(s.actor, s.name) for s in fsm.states}
+    for s in fsm.states:
+        what = _unclaimed(s.name, s.all_of)
+        if what is None:
+            continue
+        base = "_".join(dict.fromkeys(
+            "_".join([("not_" if c.negate else "") + c.name, *(a for a in c.args if a != s.actor)])
+            for c in s.all_of))
+        new, k = base, 1
+        while (s.actor, new) in taken:
+            k += 1
+            new = f"{base}_{k}"
+        taken.add((s.actor, new))
+        renamed[(s.actor, s.name)] = new
+        notes.append(f"{s.actor}: '{s.name}' renamed '{new}' (the name claims {what}; its predicates "
+                     f"{', '.join(str(c) for c in s.all_of)} do not)")
+    if not renamed:
+        return fsm, []
+    states = [s.model_copy(update={"name": renamed.get((s.actor, s.name), s.name)}) for s in fsm.states]
+    stages = [st.model_copy(update={"conditions": [
+        c.model_copy(update={"state": renamed.get((c.actor, c.state), c.state)}) for c in st.conditions]})
+        for st in fsm.stages]
+    return FSM(states=states, stages=stages), notes
+
+
+__all__ = ["CAUSES_ADDED", "RENAMED", "actor_states", "cause_states", "ego_states", "entails", "honest_names",
+           "is_reaction", "rule_based_fsm", "with_cause_states"]

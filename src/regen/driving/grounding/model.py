@@ -48,7 +48,13 @@ from regen.driving.grounding.answers import (
     role_schema,
 )
 from regen.driving.grounding.feasibility import available
-from regen.driving.grounding.fsm_rules import CAUSES_ADDED, actor_states, with_cause_states
+from regen.driving.grounding.fsm_rules import (
+    CAUSES_ADDED,
+    RENAMED,
+    actor_states,
+    honest_names,
+    with_cause_states,
+)
 from regen.driving.grounding.rules import (
     build_scenario,
     default_narrative,
@@ -265,6 +271,9 @@ def _ground_fsm(g: _Grounding, scenario: Scenario, roles: list[RoleChoice]) -> F
               f"({'; '.join(problems)}); used the rules")
         return None
     g.use("fsm", "model")
+    fsm, renamed = honest_names(fsm)
+    if renamed:
+        g.fallbacks.append(f"{RENAMED}{'; '.join(renamed)}")
     return fsm
 
 
