@@ -71,6 +71,7 @@ OPPOSITES = [  # (effect, cause, the cause's words quoted): the cause makes the 
     ("the ego-vehicle pulls away from the kerb", "the light turns red", "turns red"),
     ("the ego-vehicle stopped abruptly", "the traffic light turned green", "turned green"),
     ("the ego-vehicle waited at the junction", "the junction was clear", "junction was clear"),
+    ("the car stopped abruptly", "the traffic light turned green", "turned green"),  # 'the car' alone is the ego
 ]
 NOT_OPPOSITES = [
     ("the ego-vehicle drove off from a stop", "the traffic light turned green"),  # a drive-off, not a stop
@@ -79,6 +80,7 @@ NOT_OPPOSITES = [
     ("the ego-vehicle stopped abruptly", "a car ran the red light at the junction"),
     ("the ego-vehicle changed lanes to the right", "a bus stopped at a bus stop in the ego's lane"),
     ("a child ran into the road", "the traffic light turned green"),  # not the ego's effect
+    ("the car ahead stopped abruptly", "the traffic light turned green"),  # another car, not the ego
 ]
 
 

@@ -17,6 +17,7 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 
+from regen.assets.names import without_robot
 from regen.core.words import lowered
 
 _PLACE = (r"(?:city|town|country|state|province|village|district|neighbou?rhood|suburb|street|road|"
@@ -52,7 +53,7 @@ def opposite_of(cause: str, effect: str, opposites: Sequence[tuple[str, str, str
     order: the first whose effect pattern matches decides, so 'drove off from a stop' is a
     drive-off); only an effect that names the robot (one of ``robot_names``) is tested."""
     said = lowered(effect)
-    if not any(name.lower() in said for name in robot_names):
+    if " itself " not in without_robot(effect, list(robot_names)):  # 'the car ahead stops' is another car
         return None
     text = lowered(cause)
     for effect_rx, cause_rx, instead in opposites:  # the first kind of effect it is decides
