@@ -125,14 +125,14 @@ def test_a_paraphrase_check_flags_another_asset_and_the_pipeline_leaves_it_to_th
     from regen.core.scenario import Entity
 
     manip = domains.make("manipulation")
-    s = ground_rule_based(chain("stop_abruptly", "mopping the floor",
+    s = ground_rule_based(chain("stop_abruptly", "the washing is still wet",
                                 ("traffic_cone", {"start_location": ["ahead_same_lane"]})))
     db = manip.database()
-    # the cast: a trash can where the words mean a floor mop
+    # the cast: a trash can where the words mean the laundry
     s = s.model_copy(update={"entities": [Entity(name="trash_can1", asset="trash_can", kind="object")]})
     f = check_rules(s, db, robot="robot", paraphrases=True)
     assert f.status == "unfaithful"
-    assert "'mopping floor', a close paraphrase of a floor mop" in f.reason
+    assert "'washing', a close paraphrase of a laundry" in f.reason
     assert check_rules(s, db, robot="robot").status == "undecided"  # the pipeline's: the model decides
 
 
@@ -200,6 +200,12 @@ def test_a_person_or_animal_named_in_words_no_asset_has_must_be_shown() -> None:
     assert check_rules(_door(puppy, ["pet"]), db, robot=robot, own=own).status == "faithful"
     f = check_rules(_door(puppy, ["adult"]), db, robot=robot, own=own)
     assert f.status == "unfaithful" and "names an animal ('puppies')" in f.reason
+    # a spill the words make with a verb is a spill to show, and mopping needs a mop
+    spilled = "the dog spilled water by the door"
+    f = check_rules(_door(spilled, ["pet"]), db, robot=robot, own=own)
+    assert f.status == "unfaithful" and "names a spilled" in f.reason
+    assert check_rules(_door(spilled, ["pet", "spill"]), db, robot=robot, own=own).status == "faithful"
+    assert [m.asset for m in db.named_in("the hall floor needs mopping")] == ["mop"]
     # an owner or a past doer is not in the scene: the rules leave it undecided
     for event in ("the plumber's book lies by the door", "a book was dropped by the plumber at the door"):
         f = check_rules(_door(event, ["book"]), db, robot=robot, own=own)
