@@ -87,8 +87,10 @@ def _pose_at(scene: Scene, trace: Trace, i: int, offsets: dict[str, np.ndarray])
 
 def _label_text(scenario: Scenario, name: str) -> str:
     e = scenario.entity(name)
-    loc = e.properties.get("location")
-    return f"{name} ({loc.replace('_', ' ')})" if loc else name
+    bits = [f"power {e.properties['power']}"] if e.properties.get("power") else []
+    if e.properties.get("location"):
+        bits.append(e.properties["location"].replace("_", " "))
+    return f"{name} ({'; '.join(bits)})" if bits else name
 
 
 def render_frames(scenario: Scenario, trace: Trace, indices: list[int]) -> list[Image.Image]:

@@ -84,7 +84,7 @@ PROXY_STYLE: dict[str, tuple[RGBA, str]] = {
     "laptop": ((0.3, 0.3, 0.33, 1), "box"), "bottle": ((0.15, 0.55, 0.3, 1), "cylinder"),
     "clothes": ((0.35, 0.5, 0.8, 1), "box"), "frozen_vegetables": ((0.6, 0.85, 0.95, 1), "box"),
     "trash_can": ((0.45, 0.45, 0.45, 1), "cylinder"), "tv": ((0.1, 0.1, 0.12, 1), "box"),
-    "desk_lamp": ((0.95, 0.85, 0.3, 1), "cylinder"), "fruit": ((0.95, 0.55, 0.1, 1), "cylinder"),
+    "desk_lamp": ((0.55, 0.5, 0.35, 1), "cylinder"), "fruit": ((0.95, 0.55, 0.1, 1), "cylinder"),
     "toy": ((0.95, 0.3, 0.6, 1), "box"), "cup": ((0.9, 0.25, 0.2, 1), "cylinder"),
     "visitor": ((0.55, 0.3, 0.6, 1), "cylinder"), "spill": ((0.85, 0.55, 0.1, 0.9), "box"),
     "mop": ((0.85, 0.8, 0.6, 1), "cylinder"), "ingredients": ((0.9, 0.8, 0.5, 1), "box"),
