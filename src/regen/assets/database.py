@@ -4,9 +4,11 @@ File format (JSON), mirroring the paper's ``node[...] = [...]`` graph with typed
 
 - ``categories``: category -> asset ids (``node["vehicles"] = ["sedan", ...]``)
 - ``assets``: asset id -> kind, description, size [m], CARLA blueprint, its properties and the
-  behaviors it supports
+  behaviors it supports, and ``implies``: states that words name for this asset only
+  (``"tv": {"implies": {"power": {"on": ["tv show"]}}}``)
 - ``properties``: property -> enumerated ``states`` (``node["siren"] = ["on", "off"]``), or
-  ``null`` where the database enumerates none and the LLM proposes values (locations)
+  ``null`` where the database enumerates none and the LLM proposes values (locations), and
+  ``named_by``: the phrases that name each state in an event's words (``"on": ["let pass"]``)
 - ``behaviors``: motion primitive -> the properties that parameterize it
   (``node["constant speed"] = ["ending location", "starting location", "target speed"]``)
 """
