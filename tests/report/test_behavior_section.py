@@ -222,3 +222,27 @@ def test_a_domain_that_measures_no_proximity_gets_no_time_to_collision_columns(m
         assert ("min time to collision" in section) is shown
         assert ('class="num min-ttc"' in section) is shown
         assert _cell(_row(section, "mine"), "n-passed") == "1"
+
+
+def test_a_result_of_a_scenario_that_changed_or_went_is_marked_stale(make_run):
+    from regen.harness.results import scenario_digest
+
+    run = make_run([{}, {}])
+    folder = run / "tests" / "idm"
+    cases = [_case(scenario="01-cause-1"), _case(scenario="02-cause-2", status="failed", collision=True),
+             _case(scenario="03-gone")]
+    write_json(folder / "tests.json", {"policy": "idm", "oracle": "fsm", "cases": cases})
+    for c in cases[:2]:  # what regen test keeps of each case it ran: the digest of the scenario it judged
+        write_json(folder / "cases" / f"{c['scenario']}-v0.json",
+                   {"digest": scenario_digest(run / "scenarios" / c["scenario"]), "case": c})
+    assert [c.stale for c in load_run(run).tests.policies[0].cases] == [
+        None, None, "its scenario is no longer in the run"]
+    # a later run of generate replaced scenario 2: its result no longer says anything about it
+    verdict = run / "scenarios" / "02-cause-2" / "verdict.json"
+    verdict.write_text(verdict.read_text(encoding="utf-8").replace("verified", "unfaithful"), encoding="utf-8")
+    pt = load_run(run).tests.policies[0]
+    assert [c.stale for c in pt.cases] == [None, "its scenario changed since the test ran",
+                                           "its scenario is no longer in the run"]
+    section = _tests_section(write_report(run).read_text(encoding="utf-8"))
+    assert "2 test results are of a scenario that is gone or changed" in section
+    assert section.count('<span class="badge stale"') == 3  # two rows, and the failure's caption

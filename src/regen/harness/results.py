@@ -26,7 +26,7 @@ from regen.core.io import make_folder, try_lock, write_json
 from regen.errors import ConfigError
 from regen.harness.cases import CaseResult
 from regen.harness.pictures import FAILURE_GIF, TRACE_FILE, case_folder
-from regen.runfolder import read_json
+from regen.runfolder import ScenarioFolder, read_json
 
 SETTINGS = "settings.json"
 CASES = "cases"
@@ -57,15 +57,9 @@ def policy_digest(spec: str) -> str | None:
 
 
 def scenario_digest(folder: Path) -> str:
-    """sha256 over a scenario folder's scenario, verdict and trace files (what a case judged)."""
-    h = hashlib.sha256()
-    for name in ("scenario.json", "verdict.json", "trace.json"):
-        try:
-            h.update((folder / name).read_bytes())
-        except OSError:
-            h.update(b"-")
-        h.update(b"\0")
-    return h.hexdigest()
+    """sha256 over a scenario folder's scenario, verdict and trace files (what a case judged;
+    :meth:`ScenarioFolder.digest`, which the report compares too)."""
+    return ScenarioFolder(folder).digest()
 
 
 class ResultsFolder:

@@ -14,7 +14,7 @@ from pathlib import Path, PurePosixPath
 from typing import Any
 
 from regen.report.links import href
-from regen.runfolder import RunFolder, read_tests
+from regen.runfolder import RunFolder, ScenarioFolder, read_json, read_tests
 
 __all__ = ["BehaviorTests", "CaseRow", "PolicyTests", "RateRow", "load_tests"]
 
@@ -40,6 +40,9 @@ class CaseRow:
     number: int | None = None  # the scenario's number in the page
     cause_label: str = ""  # the scenario's root cause (its folder name when unknown)
     behavior_label: str = ""  # the behavior the scenario explains (the run's when unknown)
+    #: why this result may no longer hold: its scenario is gone, or changed since the test ran
+    #: (a later ``regen generate --fresh`` or rerun); None: the scenario is the one tested
+    stale: str | None = None
 
     @property
     def ran(self) -> bool:
@@ -80,6 +83,10 @@ class PolicyTests:
     @property
     def failures(self) -> list[CaseRow]:
         return [c for c in self.cases if c.status == "failed"]
+
+    @property
+    def stale(self) -> list[CaseRow]:
+        return [c for c in self.cases if c.stale]
 
 
 @dataclass
@@ -150,7 +157,25 @@ def read_policy(run_dir: Path, folder: str, loaded) -> PolicyTests:
     out.cases = [_case(c, base, folder) for c in cases if isinstance(c, dict)]
     if len(out.cases) < len(cases):
         out.problem = f"{len(cases) - len(out.cases)} case(s) unreadable and left out"
+    for c in out.cases:
+        c.stale = _stale(Path(run_dir), base, c)
     return out
+
+
+def _stale(run_dir: Path, base: Path, c: CaseRow) -> str | None:
+    """Why ``c``'s result may not hold for the run's scenario as it is now: the scenario folder
+    is gone, or its files differ from those the test judged (the digest ``regen test`` kept in
+    ``cases/<scenario>-v<k>.json``). None when it is the same, or nothing was kept to compare."""
+    folder = run_dir / RunFolder.SCENARIOS / c.scenario
+    if c.scenario in ("", "?") or "/" in c.scenario or "\\" in c.scenario:
+        return None
+    if not folder.is_dir():
+        return "its scenario is no longer in the run"
+    kept = read_json(base / "cases" / f"{c.scenario}-v{c.variant}.json")
+    digest = kept.value.get("digest") if kept.ok and isinstance(kept.value, dict) else None
+    if not isinstance(digest, str):
+        return None
+    return None if digest == ScenarioFolder(folder).digest() else "its scenario changed since the test ran"
 
 
 def load_tests(run_dir: Path, scenarios: list, behavior: str) -> BehaviorTests | None:

@@ -14,6 +14,7 @@ problem, so a half-finished or hand-edited run can still be shown (:mod:`.reader
 
 from __future__ import annotations
 
+import hashlib
 import os
 import shutil
 from collections.abc import Iterator
@@ -66,6 +67,18 @@ class ScenarioFolder:
 
     def __truediv__(self, name: str) -> Path:
         return self.path / name
+
+    def digest(self) -> str:
+        """sha256 over the scenario, verdict and trace files: what a behavior test judged, so a
+        test result can tell whether its scenario is still the one it ran ('-' for a missing file)."""
+        h = hashlib.sha256()
+        for name in (self.SCENARIO, self.VERDICT, self.TRACE):
+            try:
+                h.update((self.path / name).read_bytes())
+            except OSError:
+                h.update(b"-")
+            h.update(b"\0")
+        return h.hexdigest()
 
     # readers
     def verdict(self) -> Verdict | None:
