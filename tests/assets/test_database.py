@@ -188,3 +188,28 @@ def test_a_state_several_assets_share_is_held_by_the_generic_one_when_no_actor_i
     assert set(named) == expected
     if "sedan" in expected:
         assert "driver_state = distracted" in named["sedan"]
+
+
+@pytest.mark.parametrize(("text", "expected"), [
+    ("the dog knocked over its water bowl", {"pet", "spill"}),  # the water went somewhere
+    ("the cat tipped over a glass of milk", {"pet", "cup", "spill"}),
+    ("the dog knocked over the vase", {"pet"}),  # no liquid: no spill
+    ("the dog sleeps beside its water bowl", {"pet"}),  # liquid, nothing knocked over
+    ("papers on the desk are blowing away", {"book"}),  # the flat paper object of the database
+])
+def test_words_that_together_imply_an_asset_name_it(text: str, expected: set[str]) -> None:
+    from regen.manipulation.assets import database as manipulation
+
+    assert set(manipulation().named_assets(text, robot=["robot"])) == expected
+
+
+def test_an_implied_by_entry_needs_two_groups_of_phrases(tmp_path: Path) -> None:
+    data = _minimal()
+    asset = next(iter(data["assets"]))
+    data["assets"][asset]["implied_by"] = [[["knocked over"]]]  # one group: an alias, not an implication
+    with pytest.raises(AssetDatabaseError, match="two or more groups"):
+        load_database(_write(tmp_path, data))
+    data["assets"][asset]["implied_by"] = [[["knocked over"], ["water", "milk"]]]
+    db = load_database(_write(tmp_path, data))
+    assert [m.key for m in db.implied_by_words("someone knocked over the milk")] == ["knocked over + milk"]
+    assert db.implied_by_words("someone knocked over the chair") == []

@@ -88,6 +88,18 @@ def test_a_manipulation_cause_never_takes_the_task_object_for_its_entity() -> No
     assert any(s.actor == "pet1" and s.cause for s in sc.fsm.states)
 
 
+def test_words_that_imply_a_spill_ground_it_beside_the_animal_named() -> None:
+    tipped = "the dog knocked over its water bowl by the door"
+    model = ScriptedModel(causes={DOOR: [tipped]}, entities={tipped: ["door"]},
+                          values={"location": ["outside the door"]})
+    g = _expand("manipulation", model)
+    spill = _node(g, "spill", "entity")
+    assert spill.status == "accepted" and spill.history[0].by == "database"
+    assert "knocked over + water" in spill.history[0].reason
+    (path,) = g.paths()
+    assert sorted(e.asset for e in path.entities) == ["pet", "spill"]
+
+
 def test_names_overlap_the_longest_wins_and_the_robot_names_nothing() -> None:
     db = database_of("driving")
     got = lambda t: [m.asset for m in db.named_in(t, exclude="ego-vehicle")]  # noqa: E731

@@ -206,6 +206,11 @@ def test_a_person_or_animal_named_in_words_no_asset_has_must_be_shown() -> None:
     assert f.status == "unfaithful" and "names a spilled" in f.reason
     assert check_rules(_door(spilled, ["pet", "spill"]), db, robot=robot, own=own).status == "faithful"
     assert [m.asset for m in db.named_in("the hall floor needs mopping")] == ["mop"]
+    # a drink knocked over is a spill too, though no word names it
+    tipped = "the dog knocked over its water bowl by the door"
+    f = check_rules(_door(tipped, ["pet"]), db, robot=robot, own=own)
+    assert f.status == "unfaithful" and "implies a spill ('knocked over + water')" in f.reason
+    assert check_rules(_door(tipped, ["pet", "spill"]), db, robot=robot, own=own).status == "faithful"
     # an owner or a past doer is not in the scene: the rules leave it undecided
     for event in ("the plumber's book lies by the door", "a book was dropped by the plumber at the door"):
         f = check_rules(_door(event, ["book"]), db, robot=robot, own=own)

@@ -5,7 +5,9 @@ File format (JSON), mirroring the paper's ``node[...] = [...]`` graph with typed
 - ``categories``: category -> asset ids (``node["vehicles"] = ["sedan", ...]``)
 - ``assets``: asset id -> kind, description, size [m], CARLA blueprint, its properties and the
   behaviors it supports, and ``implies``: states that words name for this asset only
-  (``"tv": {"implies": {"power": {"on": ["tv show"]}}}``)
+  (``"tv": {"implies": {"power": {"on": ["tv show"]}}}``), and ``implied_by``: groups of
+  phrases that together name the asset where none of its names occurs (``"spill":
+  {"implied_by": [[["knocked over", "tipped over"], ["water", "milk"]]]}``)
 - ``properties``: property -> enumerated ``states`` (``node["siren"] = ["on", "off"]``), or
   ``null`` where the database enumerates none and the LLM proposes values (locations), and
   ``named_by``: the phrases that name each state in an event's words (``"on": ["let pass"]``)
@@ -51,6 +53,18 @@ class AssetSpec(Model):
     #: states that words name for this asset only, as property -> state -> phrases ('a tv show'
     #: is a tv that is on; a lamp has no show): merged with the property's own ``named_by``
     implies: dict[str, dict[str, list[str]]] = Field(default_factory=dict)
+    #: word groups that together name this asset where none of its names occurs: each entry is a
+    #: list of groups, and the asset is named when one phrase of every group occurs ('knocked
+    #: over' and 'water' name a spill; 'knocked over' alone does not, nor 'water' alone)
+    implied_by: list[list[list[str]]] = Field(default_factory=list)
+
+    @model_validator(mode="after")
+    def _word_groups(self) -> AssetSpec:
+        for entry in self.implied_by:
+            if len(entry) < 2 or not all(g and all(p.strip() for p in g) for g in entry):
+                raise ValueError("implied_by: each entry needs two or more groups of non-empty phrases "
+                                 "(one group alone is an alias)")
+        return self
 
 
 class PropertySpec(Model):

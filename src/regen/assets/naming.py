@@ -36,7 +36,7 @@ class AssetMatch(Model):
 
     asset: str
     similarity: float  # 0-1, see :func:`similarity`
-    via: Literal["id", "alias", "description", "state", "motion", "paraphrase"]
+    via: Literal["id", "alias", "description", "state", "motion", "paraphrase", "words"]
     key: str  # the id, alias or description phrase that matched
     phrase: str = ""  # for a paraphrase: the words of the text that matched ``key``
 
@@ -159,6 +159,23 @@ class Naming:
                                       key=f"{named[1]} ({prop} = {named[0]})"))
         return out
 
+    def implied_by_words(self, text: str, *, exclude: str | Sequence[str] = "",
+                         skip: frozenset[str] = frozenset()) -> list[AssetMatch]:
+        """Assets that ``text`` names through words that together imply them (an asset's
+        ``implied_by``: 'the dog knocked over its water bowl' has a spill), as whole words,
+        outside the words of ``exclude`` (the robot's)."""
+        words = name_words(without_robot(text, [exclude] if isinstance(exclude, str) else list(exclude)))
+        out: list[AssetMatch] = []
+        for aid, spec in self.assets.items():
+            if aid in skip:
+                continue
+            for entry in spec.implied_by:
+                said = [next((p for p in group if _has_words(words, name_words(p))), None) for group in entry]
+                if all(said):
+                    out.append(AssetMatch(asset=aid, similarity=1.0, via="words", key=" + ".join(said)))  # type: ignore[arg-type]
+                    break
+        return out
+
     def named_motions(self, text: str, *, robot: str | Sequence[str] = "") -> dict[str, str]:
         """Every motion (a ``behavior`` state) ``text``'s words name for some asset, as
         {motion: phrase} (:meth:`named_states` over the database's assets); a motion whose
@@ -191,7 +208,7 @@ class Naming:
                      own: frozenset[str] = frozenset(), encoder: Any = None) -> dict[str, str]:
         """Asset -> why, for every asset ``text`` names: by an id, alias or description phrase
         (:meth:`named_in`, the words of ``robot`` excluded), by a state only it has
-        (:meth:`implied_by_states`); where none of these names one, by a motion only some assets
+        (:meth:`implied_by_states`), by words that together imply it (:meth:`implied_by_words`); where none of these names one, by a motion only some assets
         make (:meth:`implied_by_motion`) or, with an ``encoder``, by a close paraphrase
         (:meth:`paraphrased_in`); where no name does, by a state several share
         (:meth:`implied_by_shared_states`). ``own``: assets never returned (a task's own object)."""
@@ -202,6 +219,8 @@ class Naming:
             out[m.asset] = f"the event names it ({what})"
         for m in self.implied_by_states(text, skip=own):
             out.setdefault(m.asset, f"the event names a state only it has: {m.key}")
+        for m in self.implied_by_words(text, exclude=robot, skip=own):
+            out.setdefault(m.asset, f"the event's words imply it together: {m.key}")
         if encoder is not None and not out:
             for m in self.paraphrased_in(text, encoder, exclude=robot, skip=own):
                 out.setdefault(m.asset, f"the event names it by a close paraphrase: '{m.phrase}' ~ "
@@ -245,3 +264,9 @@ class Naming:
             out.setdefault(owners[0], AssetMatch(asset=owners[0], similarity=1.0, via="state",
                                                  key=f"{phrase} ({prop} = {state})"))
         return list(out.values())
+
+
+def _has_words(words: list[str], phrase: list[str]) -> bool:
+    """Whether ``phrase`` occurs in ``words`` as consecutive whole words."""
+    n = len(phrase)
+    return n > 0 and any(words[i:i + n] == phrase for i in range(len(words) - n + 1))

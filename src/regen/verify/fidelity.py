@@ -88,11 +88,16 @@ def check_rules(scenario: Scenario, db: AssetDatabase, *, robot: str | Sequence[
     wrong: list[str] = []
     for event in causes:
         by_name = db.named_in(event, exclude=robot, skip=own)  # a state alone names no entity here
+        by_name += [m for m in db.implied_by_words(event, exclude=robot, skip=own)
+                    if m.asset not in {n.asset for n in by_name}]
         if encoder is not None:
             by_name += db.paraphrased_in(event, encoder, exclude=robot, skip=own)
         for m in by_name:
             named.append(m.asset)
             if not any(e.asset == m.asset or db.answers_to(e.asset, m.key) for e in cast):
+                if m.via == "words":
+                    missing.append(f"'{event}' implies a {m.asset.replace('_', ' ')} ('{m.key}')")
+                    continue
                 said = f"'{m.phrase}', a close paraphrase of " if m.phrase else ""
                 missing.append(f"'{event}' names {said}a {m.key.replace('_', ' ')}")
         # 6. a person or an animal the words name, whatever asset plays them; where an asset of
