@@ -11,6 +11,7 @@ from typing import Any
 from regen.core.io import write_json
 from regen.harness.cases import CaseResult
 from regen.harness.contract import Episode, PolicyHarness
+from regen.runfolder import behavior_test_name
 
 log = logging.getLogger(__name__)
 
@@ -20,7 +21,7 @@ TRACE_FILE = "trace.json"
 
 def case_folder(case: CaseResult) -> str:
     """Folder name of one test's files beside tests.json: ``<scenario>-v<variant>``."""
-    return f"{case.scenario}-v{case.variant}"
+    return behavior_test_name(case.scenario, case.variant)
 
 
 def keep_failures(out_dir: str | Path, harness: PolicyHarness, *, policy: str = "policy",

@@ -26,10 +26,10 @@ from regen.core.io import make_folder, try_lock, write_json
 from regen.errors import ConfigError
 from regen.harness.cases import CaseResult
 from regen.harness.pictures import FAILURE_GIF, TRACE_FILE, case_folder
-from regen.runfolder import ScenarioFolder, read_json
+from regen.runfolder import RunFolder, ScenarioFolder, read_json
 
 SETTINGS = "settings.json"
-CASES = "cases"
+CASES = RunFolder.TEST_CASES
 TESTS_JSON = "tests.json"
 JUNIT = "junit.xml"
 POLICY_LOG = "policy.log"

@@ -14,7 +14,7 @@ from pathlib import Path, PurePosixPath
 from typing import Any
 
 from regen.report.links import href
-from regen.runfolder import RunFolder, ScenarioFolder, read_json, read_tests
+from regen.runfolder import RunFolder, ScenarioFolder, behavior_test_name, read_json, read_tests
 
 __all__ = ["BehaviorTests", "CaseRow", "PolicyTests", "RateRow", "load_tests"]
 
@@ -165,13 +165,13 @@ def read_policy(run_dir: Path, folder: str, loaded) -> PolicyTests:
 def _stale(run_dir: Path, base: Path, c: CaseRow) -> str | None:
     """Why ``c``'s result may not hold for the run's scenario as it is now: the scenario folder
     is gone, or its files differ from those the test judged (the digest ``regen test`` kept in
-    ``cases/<scenario>-v<k>.json``). None when it is the same, or nothing was kept to compare."""
+    ``RunFolder.TEST_CASES``). None when it is the same, or nothing was kept to compare."""
     folder = run_dir / RunFolder.SCENARIOS / c.scenario
     if c.scenario in ("", "?") or "/" in c.scenario or "\\" in c.scenario:
         return None
     if not folder.is_dir():
         return "its scenario is no longer in the run"
-    kept = read_json(base / "cases" / f"{c.scenario}-v{c.variant}.json")
+    kept = read_json(base / RunFolder.TEST_CASES / f"{behavior_test_name(c.scenario, c.variant)}.json")
     digest = kept.value.get("digest") if kept.ok and isinstance(kept.value, dict) else None
     if not isinstance(digest, str):
         return None

@@ -168,6 +168,7 @@ class RunFolder:
     SCENARIOS = "scenarios"
     TESTS = "tests"  # regen test: tests/<policy>/tests.json, junit.xml and failure pictures
     TESTS_JSON = "tests.json"
+    TEST_CASES = "cases"  # regen test: tests/<policy>/cases/<scenario>-v<k>.json, one result each
 
     def __init__(self, path: str | Path):
         self.path = Path(path)
@@ -391,6 +392,12 @@ def read_tests(run: Path) -> dict[str, Loaded]:
     return out
 
 
+def behavior_test_name(scenario: str, variant: int | str) -> str:
+    """The name of one behavior test's files beside tests.json (its result in
+    ``RunFolder.TEST_CASES``, its failure pictures): ``<scenario>-v<variant>``."""
+    return f"{scenario}-v{variant}"
+
+
 __all__ = ["MAX_JSON_BYTES", "MAX_TEXT_CHARS", "Loaded", "RunFolder", "RunManifest", "RunSettings",
-           "ScenarioFolder", "list_runs", "merge_usage", "now", "out_folder", "read_graph", "read_json",
+           "ScenarioFolder", "behavior_test_name", "list_runs", "merge_usage", "now", "out_folder", "read_graph", "read_json",
            "read_model", "read_summary", "read_tests", "read_text"]

@@ -196,24 +196,26 @@ def with_cause_states(fsm: FSM, roles: list[RoleChoice], t: EgoTemplate) -> tupl
 
 #: words of a state name that claim what only these predicates show (a model names a state
 #: "colliding" while its calls say close_to and on_road): (pattern, predicates, what it claims)
-_CLAIMS: tuple[tuple[str, frozenset[str], str], ...] = (
-    (r"collid|collision|crash|\bhit|_hit|impact", frozenset({"collided", "collides", "collision"}),
-     "a collision"),
-    (r"brak", frozenset({"braking"}), "braking"),
-    (r"accelerat|speeding_up", frozenset({"accelerating"}), "accelerating"),
-    (r"chang\w*_lanes?|lane_chang|merg|swerv|cut\w*_in", frozenset({"changing_lane"}), "a lane change"),
-)
-_DENIED = r"(?:^|_)(?:no|not|non|avoid\w*|without|near|almost|pre|before|after|about_to|un)(?:_|$)"
+_CLAIMS: tuple[tuple[re.Pattern[str], frozenset[str], str], ...] = tuple(
+    (re.compile(pattern), needs, what) for pattern, needs, what in (
+        (r"collid|collision|crash|\bhit|_hit|impact", frozenset({"collided", "collides", "collision"}),
+         "a collision"),
+        (r"brak", frozenset({"braking"}), "braking"),
+        (r"accelerat|speeding_up", frozenset({"accelerating"}), "accelerating"),
+        (r"chang\w*_lanes?|lane_chang|merg|swerv|cut\w*_in", frozenset({"changing_lane"}), "a lane change"),
+    ))
+_DENIED = re.compile(r"(?:^|_)(?:no|not|non|avoid\w*|without|near|almost|pre|before|after|about_to|un)(?:_|$)")
+_WORD = re.compile(r"[a-z0-9]+")
 
 
 def _unclaimed(name: str, calls: Calls) -> str | None:
     """What a state's name claims that none of its (positive) calls shows, or None."""
-    key = "_".join(re.findall(r"[a-z0-9]+", name.lower()))
-    if re.search(_DENIED, key):
+    key = "_".join(_WORD.findall(name.lower()))
+    if _DENIED.search(key):
         return None
     held = {c.name for c in calls if not c.negate}
     for pattern, needs, what in _CLAIMS:
-        if re.search(pattern, key) and not held & needs:
+        if pattern.search(key) and not held & needs:
             return what
     return None
 
