@@ -93,6 +93,20 @@ def _label_text(scenario: Scenario, name: str) -> str:
     return f"{name} ({'; '.join(bits)})" if bits else name
 
 
+def _free_row(placed: list[tuple[float, float, float, float]], x0: float, y0: float, w: float,
+              h: float = 11) -> float:
+    """The top of a label ``w`` wide at ``x0`` nearest to ``y0`` that overlaps none of
+    ``placed`` (two objects side by side on the table would print one label over the other)."""
+    def free(y: float) -> bool:
+        return all(x0 + w <= a or b <= x0 or y + h <= c or d <= y for a, c, b, d in placed)
+
+    for step in range(12):
+        for y in (y0 - step * (h + 1), y0 + step * (h + 1)):
+            if 0 <= y <= HEIGHT - 14 - h and free(y):
+                return y
+    return y0
+
+
 def render_frames(scenario: Scenario, trace: Trace, indices: list[int]) -> list[Image.Image]:
     """Images of the trace at the given sample indices, with object labels."""
     layout, _ = layout_from_scenario(scenario)
@@ -121,6 +135,7 @@ def render_frames(scenario: Scenario, trace: Trace, indices: list[int]) -> list[
                                                 physicsClientId=c)
             img = Image.fromarray(np.asarray(rgba, dtype=np.uint8).reshape(HEIGHT, WIDTH, 4)[:, :, :3])
             draw = ImageDraw.Draw(img)
+            placed: list[tuple[float, float, float, float]] = []
             for name, track in trace.actors.items():
                 if name == "robot" or name not in scene.bodies:
                     continue
@@ -130,7 +145,9 @@ def render_frames(scenario: Scenario, trace: Trace, indices: list[int]) -> list[
                     continue
                 text = _label_text(scenario, name)
                 w = draw.textlength(text)
-                x0, y0 = max(0, min(WIDTH - w - 4, xy[0] - w / 2)), max(0, xy[1] - 12)
+                x0 = max(0, min(WIDTH - w - 4, xy[0] - w / 2))
+                y0 = _free_row(placed, x0, max(0, xy[1] - 12), w + 4)
+                placed.append((x0, y0, x0 + w + 4, y0 + 11))
                 draw.rectangle((x0, y0, x0 + w + 4, y0 + 11), fill=(255, 255, 255))
                 draw.text((x0 + 2, y0), text, fill=(0, 0, 0))
             draw.rectangle((2, HEIGHT - 13, 62, HEIGHT - 1), fill=(0, 0, 0))
