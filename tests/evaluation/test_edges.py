@@ -224,3 +224,32 @@ def test_metrics_are_reported_per_split():
     assert by[("driving", "event->event", "tune")].accuracy.mean == 0.5  # 2 of 4 are causes
     assert by[("driving", "event->event", "test")].accuracy.mean == 1.0
     assert by[("driving", "event->event", "test")].examples == 1
+
+
+def test_a_place_the_event_says_is_the_location_whatever_the_model_picks():
+    """A free-valued property (a place) is named by the offered value the event says whole."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parents[1] / "support"))
+    from fake_expansion_model import ScriptedModel
+
+    from regen.assets.database import database_of
+    from regen.expand.edges import judge_candidates, named_states
+    from regen.llm import LLM
+    from regen.llm.testing import FunctionProvider
+
+    model = ScriptedModel(causes={}, choose={"location": ["inside the oven"]})  # the model is wrong
+    llm = LLM(FunctionProvider(model))
+    event = "the fruit left on the counter is going bad"
+    got = judge_candidates(llm, "property->entity", "fruit",
+                           ["location: on the counter", "location: inside the oven"],
+                           domain="manipulation", context=[event, "the robot opens the fridge"])
+    assert got == {"location: on the counter"}
+    db = database_of("manipulation")
+    options = {"location": ("where", ["on the counter", "near the counter"])}
+    assert named_states(db, "fruit", event, options) == {"location": ("on the counter", "on the counter")}
+    # a place the words do not say whole, or two places said, name nothing
+    assert named_states(db, "fruit", "the fruit is going bad", options) == {}
+    both = {"location": ("where", ["on the counter", "counter"])}
+    assert named_states(db, "fruit", event, both) == {}

@@ -24,7 +24,7 @@ from regen.assets.names import (
     without_robot,
 )
 from regen.core.base import Model
-from regen.core.words import name_words
+from regen.core.words import has_phrase, name_words
 from regen.core.words import surface_words as _surface
 
 if TYPE_CHECKING:
@@ -170,7 +170,7 @@ class Naming:
             if aid in skip:
                 continue
             for entry in spec.implied_by:
-                said = [next((p for p in group if _has_words(words, name_words(p))), None) for group in entry]
+                said = [next((p for p in group if has_phrase(words, name_words(p))), None) for group in entry]
                 if all(said):
                     out.append(AssetMatch(asset=aid, similarity=1.0, via="words", key=" + ".join(said)))  # type: ignore[arg-type]
                     break
@@ -265,8 +265,3 @@ class Naming:
                                                  key=f"{phrase} ({prop} = {state})"))
         return list(out.values())
 
-
-def _has_words(words: list[str], phrase: list[str]) -> bool:
-    """Whether ``phrase`` occurs in ``words`` as consecutive whole words."""
-    n = len(phrase)
-    return n > 0 and any(words[i:i + n] == phrase for i in range(len(words) - n + 1))

@@ -45,3 +45,10 @@ def surface_words(text: str) -> list[str]:
 def name_words(text: str) -> list[str]:
     """The words of a name as matching compares them: lower case, singular, no articles."""
     return [singular(w) for w in surface_words(text)]
+
+
+def has_phrase(words: list[str], phrase: list[str]) -> bool:
+    """Whether ``phrase`` occurs in ``words`` as consecutive whole words (both as
+    :func:`name_words` gives them)."""
+    n = len(phrase)
+    return n > 0 and any(words[i:i + n] == phrase for i in range(len(words) - n + 1))

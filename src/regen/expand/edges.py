@@ -17,7 +17,7 @@ from pydantic import Field, create_model
 from regen.assets.database import MATCH_THRESHOLD, AssetDatabase
 from regen.core.base import Answer
 from regen.core.behavior import Behavior
-from regen.core.words import lowered, name_words
+from regen.core.words import has_phrase, lowered, name_words
 from regen.embeddings import optional_encoder
 from regen.errors import ConfigError
 from regen.expand.answers import EdgeVerdict, EntitySelection, EventProposal, YesNo
@@ -369,9 +369,18 @@ def property_options(db: AssetDatabase, asset: str, proposed: dict[str, list[str
 def named_states(db: AssetDatabase, asset: str, event: str,
                  options: dict[str, tuple[str, list[str]]]) -> dict[str, tuple[str, str]]:
     """Property -> (state, phrase) for the offered properties whose state ``event``'s words name
-    ("the light turns red": light_state = turns_red), so the judge cannot contradict the event."""
+    ("the light turns red": light_state = turns_red), so the judge cannot contradict the event.
+    A property with free values (a place) is named by an offered value whose words the event
+    says whole ("the fruit left on the counter": location = on the counter), where exactly one
+    offered value is said."""
     out = {}
+    words = name_words(event)
     for p, (_, values) in options.items():
+        if p in db.properties and db.properties[p].states is None:
+            said = [v for v in values if has_phrase(words, name_words(v))]
+            if len(said) == 1:
+                out[p] = (said[0], said[0])
+            continue
         named = db.named_state(asset, p, event)
         if named is not None and named[0] in values:
             out[p] = named
