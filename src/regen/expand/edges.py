@@ -369,10 +369,8 @@ def property_options(db: AssetDatabase, asset: str, proposed: dict[str, list[str
 def named_states(db: AssetDatabase, asset: str, event: str,
                  options: dict[str, tuple[str, list[str]]]) -> dict[str, tuple[str, str]]:
     """Property -> (state, phrase) for the offered properties whose state ``event``'s words name
-    ("the light turns red": light_state = turns_red), so the judge cannot contradict the event.
-    A property with free values (a place) is named by an offered value whose words the event
-    says whole ("the fruit left on the counter": location = on the counter), where exactly one
-    offered value is said."""
+    ("the light turns red": light_state = turns_red), so the judge cannot contradict the event;
+    a free-valued one (a place) by the one offered value the event says whole."""
     out = {}
     words = name_words(event)
     for p, (_, values) in options.items():
@@ -391,8 +389,6 @@ def property_choices(domain: Domain, asset: str, behavior: Behavior | None = Non
     """What the domain's simulator restricts of ``asset``'s properties when explaining
     ``behavior`` (``DomainBackend.property_choices``)."""
     return domain_view(domain).property_choices(asset, behavior)
-
-
 
 
 def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, entity: str,
