@@ -23,6 +23,13 @@ def _expand(domain: str, model: ScriptedModel) -> ScenarioGraph:
     return expand(behavior, LLM(FunctionProvider(model)), limits=Limits(max_depth=1, max_causes=6, max_entities=3))
 
 
+def _door_cause(cause: str) -> ScenarioGraph:
+    """The door opened because of ``cause``, for which the model picks the door itself."""
+    model = ScriptedModel(causes={DOOR: [cause]}, entities={cause: ["door"]},
+                          values={"location": ["outside the door"]})
+    return _expand("manipulation", model)
+
+
 def _node(graph: ScenarioGraph, label: str, kind: str = "event"):
     return next(n for n in graph.nodes.values() if n.kind == kind and n.label == label)
 
@@ -69,10 +76,7 @@ def test_a_cause_no_asset_can_play_is_unsimulatable_with_the_reason() -> None:
 
 
 def test_a_manipulation_cause_never_takes_the_task_object_for_its_entity() -> None:
-    cat = "the cat scratches at the door to come in"
-    model = ScriptedModel(causes={DOOR: [cat]}, entities={cat: ["door"]},
-                          values={"location": ["outside the door"]})
-    g = _expand("manipulation", model)
+    g = _door_cause("the cat scratches at the door to come in")
     pet = _node(g, "pet", "entity")
     assert pet.status == "accepted" and pet.history[0].by == "database"
     door = _node(g, "door", "entity")
@@ -89,10 +93,7 @@ def test_a_manipulation_cause_never_takes_the_task_object_for_its_entity() -> No
 
 
 def test_words_that_imply_a_spill_ground_it_beside_the_animal_named() -> None:
-    tipped = "the dog knocked over its water bowl by the door"
-    model = ScriptedModel(causes={DOOR: [tipped]}, entities={tipped: ["door"]},
-                          values={"location": ["outside the door"]})
-    g = _expand("manipulation", model)
+    g = _door_cause("the dog knocked over its water bowl by the door")
     spill = _node(g, "spill", "entity")
     assert spill.status == "accepted" and spill.history[0].by == "database"
     assert "knocked over + water" in spill.history[0].reason
