@@ -54,7 +54,7 @@ def beings_named(text: str, *, exclude: str | Sequence[str] = ()) -> dict[str, s
     """Kind -> the first word of ``text`` that names a being of that kind as an actor of the
     cause. Skipped: possessives ('grandma's book'), doers after 'by' ('left by the children'),
     and the phrases of ``exclude`` (what the domain calls its robot)."""
-    raw = without_robot(text, [exclude] if isinstance(exclude, str) else list(exclude))
+    raw = without_robot(text, exclude)
     raw = re.sub(r"\b[a-z]+s?'s?(?=\s|$)", " ", raw)  # possessives: their owner is not in the scene
     raw = re.sub(r"\bby\s+(?:(?:the|a|an|my|our|his|her|their|its)\s+)?[a-z]+", " ", raw)
     out: dict[str, str] = {}

@@ -6,6 +6,7 @@ blanked. The queries that use these are :class:`~regen.assets.database.AssetData
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from difflib import SequenceMatcher
 from functools import lru_cache
 from typing import Any
@@ -41,8 +42,10 @@ _PLACE_AFTER = ("ahead", "in front", "in the", "in its", "behind", "next", "besi
                 "oncoming", "to the", "to its", "on the", "at the", "that", "which", "who", "coming", "approaching")
 
 
-def without_robot(text: str, names: list[str]) -> str:
-    """``text`` with every phrase that names the robot itself blanked (longest first)."""
+def without_robot(text: str, names: str | Sequence[str]) -> str:
+    """``text`` with every phrase that names the robot itself blanked (longest first); ``names``:
+    one phrase or several."""
+    names = [names] if isinstance(names, str) else list(names)
     out = lowered(text)
     place = "|".join(re.escape(p) for p in _PLACE_AFTER)
     for name in sorted((n.lower() for n in names if n.strip()), key=len, reverse=True):

@@ -80,7 +80,7 @@ class Naming:
         calls its robot: 'ego-vehicle', 'the vehicle') name no asset where they occur, unless a
         place follows ('the vehicle ahead' is another one); assets in ``skip`` are never returned. Each match has ``similarity`` 1.0 and the matched name as ``key``.
         """
-        text = without_robot(text, [exclude] if isinstance(exclude, str) else list(exclude))
+        text = without_robot(text, exclude)
         words = name_words(text)
         surface = _surface(text)  # as written: a plural key ('pedestrians') beats a singular one
         blocked: set[int] = set()
@@ -120,8 +120,7 @@ class Naming:
         says what the police car does; in 'a tree blocks the road' it names the road block."""
         if self.named_in(text, exclude=exclude) or self.implied_by_states(text):
             return []
-        names = [exclude] if isinstance(exclude, str) else list(exclude)
-        blanked = without_robot(text, names)
+        blanked = without_robot(text, exclude)
         words, base = _surface(blanked), name_words(blanked)
         blocked = {i for i, w in enumerate(base) if w == "itself"}
         grams: list[tuple[int, str]] = []
@@ -164,7 +163,7 @@ class Naming:
         """Assets that ``text`` names through words that together imply them (an asset's
         ``implied_by``: 'the dog knocked over its water bowl' has a spill), as whole words,
         outside the words of ``exclude`` (the robot's)."""
-        words = name_words(without_robot(text, [exclude] if isinstance(exclude, str) else list(exclude)))
+        words = name_words(without_robot(text, exclude))
         out: list[AssetMatch] = []
         for aid, spec in self.assets.items():
             if aid in skip:
@@ -182,7 +181,7 @@ class Naming:
         subject is the robot ('the ego-vehicle turns left', ``robot``'s words) is its own."""
         if "behavior" not in self.properties:
             return {}
-        blanked = without_robot(text, [robot] if isinstance(robot, str) else list(robot))
+        blanked = without_robot(text, robot)
         out: dict[str, str] = {}
         for a in self.assets:
             for st, ph in self.named_states(a, "behavior", blanked).items():
@@ -208,8 +207,9 @@ class Naming:
                      own: frozenset[str] = frozenset(), encoder: Any = None) -> dict[str, str]:
         """Asset -> why, for every asset ``text`` names: by an id, alias or description phrase
         (:meth:`named_in`, the words of ``robot`` excluded), by a state only it has
-        (:meth:`implied_by_states`), by words that together imply it (:meth:`implied_by_words`); where none of these names one, by a motion only some assets
-        make (:meth:`implied_by_motion`) or, with an ``encoder``, by a close paraphrase
+        (:meth:`implied_by_states`), by words that together imply it (:meth:`implied_by_words`);
+        where none of these names one, by a motion only some assets make
+        (:meth:`implied_by_motion`) or, with an ``encoder``, by a close paraphrase
         (:meth:`paraphrased_in`); where no name does, by a state several share
         (:meth:`implied_by_shared_states`). ``own``: assets never returned (a task's own object)."""
         out: dict[str, str] = {}
@@ -246,7 +246,7 @@ class Naming:
         a word of the property's description ('distracted' beside 'driver'), so 'a road hazard'
         names no car with its hazard lights on; a phrase inside a motion the words name
         ('swerves into the lane') is that motion's, not a state."""
-        blanked = without_robot(text, [robot] if isinstance(robot, str) else list(robot))
+        blanked = without_robot(text, robot)
         words = set(name_words(blanked))
         motions = [set(name_words(ph)) for ph in self.named_motions(text, robot=robot).values()]
         out: dict[str, AssetMatch] = {}
@@ -264,4 +264,3 @@ class Naming:
             out.setdefault(owners[0], AssetMatch(asset=owners[0], similarity=1.0, via="state",
                                                  key=f"{phrase} ({prop} = {state})"))
         return list(out.values())
-

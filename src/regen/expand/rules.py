@@ -53,7 +53,7 @@ def opposite_of(cause: str, effect: str, opposites: Sequence[tuple[str, str, str
     order: the first whose effect pattern matches decides, so 'drove off from a stop' is a
     drive-off); only an effect that names the robot (one of ``robot_names``) is tested."""
     said = lowered(effect)
-    if " itself " not in without_robot(effect, list(robot_names)):  # 'the car ahead stops' is another car
+    if " itself " not in without_robot(effect, robot_names):  # 'the car ahead stops' is another car
         return None
     text = lowered(cause)
     for effect_rx, cause_rx, instead in opposites:  # the first kind of effect it is decides

@@ -399,5 +399,5 @@ def behavior_test_name(scenario: str, variant: int | str) -> str:
 
 
 __all__ = ["MAX_JSON_BYTES", "MAX_TEXT_CHARS", "Loaded", "RunFolder", "RunManifest", "RunSettings",
-           "ScenarioFolder", "behavior_test_name", "list_runs", "merge_usage", "now", "out_folder", "read_graph", "read_json",
-           "read_model", "read_summary", "read_tests", "read_text"]
+           "ScenarioFolder", "behavior_test_name", "list_runs", "merge_usage", "now", "out_folder",
+           "read_graph", "read_json", "read_model", "read_summary", "read_tests", "read_text"]

@@ -88,8 +88,7 @@ def check_rules(scenario: Scenario, db: AssetDatabase, *, robot: str | Sequence[
     wrong: list[str] = []
     for event in causes:
         by_name = db.named_in(event, exclude=robot, skip=own)  # a state alone names no entity here
-        by_name += [m for m in db.implied_by_words(event, exclude=robot, skip=own)
-                    if m.asset not in {n.asset for n in by_name}]
+        by_name += db.implied_by_words(event, exclude=robot, skip=own | {m.asset for m in by_name})
         if encoder is not None:
             by_name += db.paraphrased_in(event, encoder, exclude=robot, skip=own)
         for m in by_name:
