@@ -139,7 +139,7 @@ def test_context_chain():
 
 
 def test_model_judge_adapts_to_judge_candidates(monkeypatch):
-    import regen.expand.edges as expand_edges
+    import regen.expand.construct as expand_edges
     from regen.evaluation.edges import model_judge
 
     seen = []
@@ -183,7 +183,7 @@ def test_judge_candidates_decides_as_expansion_does():
     sys.path.insert(0, str(Path(__file__).parents[1] / "support"))
     from fake_expansion_model import ScriptedModel
 
-    from regen.expand.edges import judge_candidates
+    from regen.expand.construct import judge_candidates
     from regen.llm import LLM
     from regen.llm.testing import FunctionProvider
 
@@ -235,7 +235,8 @@ def test_a_place_the_event_says_is_the_location_whatever_the_model_picks():
     from fake_expansion_model import ScriptedModel
 
     from regen.assets.database import database_of
-    from regen.expand.edges import judge_candidates, named_states
+    from regen.expand.construct import judge_candidates
+    from regen.expand.properties import named_states
     from regen.llm import LLM
     from regen.llm.testing import FunctionProvider
 

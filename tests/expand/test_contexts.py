@@ -227,7 +227,12 @@ def test_a_state_the_events_words_name_is_the_only_choice_and_the_others_say_why
     model = ScriptedModel(causes={STOP: [light]}, entities={light: ["traffic_light"]},
                           choose={"light_state": ["red"]})
     g = _expand("driving", model)
-    assert _node(g, "light_state = turns_red", "property").status == "accepted"
+    turns = _node(g, "light_state = turns_red", "property")
+    assert turns.status == "accepted"
+    # the light has no other property, so nothing is left to choose: no call, the database decides
+    assert "properties" not in model.kinds
+    assert (turns.history[-1].by, turns.history[-1].call_id) == ("database", None)
+    assert turns.history[-1].reason == 'the event says "turns red", which names light_state = turns_red'
     red = _node(g, "light_state = red", "property")
     assert red.status == "rejected" and red.history[-1].by == "rule"
     assert red.history[-1].reason == 'the event says "turns red", which names light_state = turns_red'

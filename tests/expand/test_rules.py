@@ -7,7 +7,8 @@ from fake_expansion_model import ScriptedModel
 
 from regen.core.behavior import Behavior
 from regen.expand import Limits, expand
-from regen.expand.edges import judge_candidates, ruled_out
+from regen.expand.construct import judge_candidates
+from regen.expand.edges import ruled_out
 from regen.expand.rules import happens_elsewhere
 from regen.llm import LLM
 from regen.llm.testing import FunctionProvider

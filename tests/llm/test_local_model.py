@@ -54,3 +54,45 @@ def test_a_process_that_loaded_the_model_exits_without_a_traceback() -> None:
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr
     assert "Traceback" not in proc.stderr and "TypeError" not in proc.stderr, proc.stderr
+
+
+def test_the_grammar_first_sampler_writes_what_llama_cpps_own_chain_writes(monkeypatch) -> None:
+    # the local provider checks the grammar on the best token first; at temperature 0 the answer
+    # must be the one llama-cpp-python's sampler chain (grammar over the whole vocabulary) gives,
+    # also where the grammar refuses the model's favourite (an enum it would not write)
+    pytest.importorskip("llama_cpp", reason="the 'local' extra is not installed")
+    import llama_cpp
+
+    from regen.llm.providers.local import LocalProvider
+    from regen.llm.providers.local_sampler import GrammarFirstGreedy
+
+    llm = LocalProvider().llama()
+    refusals = []
+    apply = GrammarFirstGreedy._apply
+    monkeypatch.setattr(GrammarFirstGreedy, "_apply",
+                        lambda self, data, size: (refusals.append(size) if size > 1 else None,
+                                                  apply(self, data, size))[1])
+    asks = [
+        ("Name two causes why a car brakes hard. Answer as JSON.",
+         {"type": "object", "properties": {"causes": {"type": "array", "items": {"type": "string"}}},
+          "required": ["causes"]}),
+        ('Is the sky blue on a clear day? Answer as JSON: {"answer": "..."}',
+         {"type": "object", "properties": {"answer": {"type": "string", "enum": ["zebra crossing", "maybe"]}},
+          "required": ["answer"]}),
+    ]
+
+    def answers() -> list[str]:
+        out = []
+        for text, schema in asks:
+            llm.reset()
+            got = llm.create_chat_completion(messages=[{"role": "user", "content": text}], temperature=0.0,
+                                             max_tokens=64, seed=0,
+                                             response_format={"type": "json_object", "schema": schema})
+            out.append(got["choices"][0]["message"]["content"])
+        return out
+
+    ours = answers()
+    assert refusals, "the enum the model would not write must take the whole-vocabulary path"
+    monkeypatch.setattr(type(llm), "_init_sampler", llama_cpp.Llama._init_sampler)
+    assert answers() == ours
+    assert '"zebra crossing"' in ours[1] or '"maybe"' in ours[1]

@@ -240,7 +240,7 @@ def model_judge(llm) -> Judge:
     expansion package; a missing one is reported before any trial runs.
     """
     try:
-        from regen.expand.edges import judge_candidates
+        from regen.expand.construct import judge_candidates
     except ImportError as exc:
         raise ConfigError("edge construction (regen.expand.edges.judge_candidates) is not "
                           "available in this installation") from exc

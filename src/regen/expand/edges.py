@@ -10,19 +10,16 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import TYPE_CHECKING, Any, Union, get_args
-
-from pydantic import Field, create_model
+from typing import TYPE_CHECKING, Union
 
 from regen.assets.database import MATCH_THRESHOLD, AssetDatabase
-from regen.core.base import Answer
 from regen.core.behavior import Behavior
-from regen.core.words import has_phrase, lowered, name_words
+from regen.core.words import lowered, name_words
 from regen.embeddings import optional_encoder
 from regen.errors import ConfigError
 from regen.expand.answers import EdgeVerdict, EntitySelection, EventProposal, YesNo
 from regen.expand.calibration import ANSWER_PREFIX, threshold_for
-from regen.expand.choices import Choices, alternatives, choice_models, dependent, only_names
+from regen.expand.choices import Choices
 from regen.expand.dedupe import normalize, similar
 from regen.expand.rules import happens_elsewhere, opposite_of
 from regen.llm.client import LLM
@@ -82,7 +79,7 @@ class DomainView:
     @cached_property
     def system(self) -> str:
         """The system prompt of every expansion call."""
-        return _render("system", self)
+        return render_prompt("system", self)
 
     @cached_property
     def mechanics(self) -> tuple[re.Pattern[str], ...]:
@@ -120,7 +117,7 @@ def domain_view(domain: str | DomainView | DomainBackend) -> DomainView:
     return DomainView(domain.name, domain)
 
 
-def _render(name: str, domain: DomainView, **variables: object) -> str:
+def render_prompt(name: str, domain: DomainView, **variables: object) -> str:
     """A shared prompt in the words of ``domain`` (its backend's ``wording``)."""
     return render(PKG, name, wording=domain.wording, **variables)
 
@@ -177,7 +174,7 @@ def propose_events(llm: LLM, domain: Domain, chain: list[str], *, prior: str | N
                    max_causes: int = 4) -> tuple[list[str], str]:
     """Candidate causes of ``chain[0]`` (chain runs from the source node to the behavior)."""
     domain = domain_view(domain)
-    prompt = _render("event_proposal", domain, chain=chain, source=chain[0],
+    prompt = render_prompt("event_proposal", domain, chain=chain, source=chain[0],
                     prior=prior, max_causes=max_causes)
     got = llm.ask(prompt, EventProposal, purpose="event_proposal", system=domain.system)
     return got.value.causes[:max_causes], got.call_id
@@ -186,7 +183,7 @@ def propose_events(llm: LLM, domain: Domain, chain: list[str], *, prior: str | N
 def event_question(domain: Domain, chain: list[str], candidate: str) -> str:
     """The event judge's question: is ``candidate`` a direct reason for ``chain[0]``?"""
     domain = domain_view(domain)
-    return _render("event_edge", domain, chain=chain, source=chain[0], candidate=candidate, robot=domain.robot)
+    return render_prompt("event_edge", domain, chain=chain, source=chain[0], candidate=candidate, robot=domain.robot)
 
 
 def judge_events(llm: LLM, domain: Domain, chain: list[str], candidates: list[str]) -> Judged:
@@ -251,7 +248,7 @@ def named_entities(db: AssetDatabase, domain: Domain, event: str, *, own: frozen
 def judge_entity(llm: LLM, db: AssetDatabase, domain: Domain, event: str, asset: str):
     """One yes/no call: does ``asset`` take part in ``event``? (with the domain's worked examples)"""
     domain = domain_view(domain)
-    prompt = _render("entity_edge", domain, event=event, entity=asset,
+    prompt = render_prompt("entity_edge", domain, event=event, entity=asset,
                      description=db.assets[asset].description)
     return llm.ask(prompt, YesNo, purpose="entity_judge", system=domain.system)
 
@@ -270,7 +267,7 @@ def select_entities(llm: LLM, db: AssetDatabase, domain: Domain, chain: list[str
     domain = domain_view(domain)
     own = domain.own_objects(behavior)
     options = [a for a in db.entities() if a not in own]
-    prompt = _render("entity_edges", domain, chain=chain, source=chain[0],
+    prompt = render_prompt("entity_edges", domain, chain=chain, source=chain[0],
                     entities=[(a, db.assets[a].description) for a in options])
     got = llm.ask(prompt, EntitySelection, purpose="entity_edges", system=domain.system)
     out = Judged(call_id=got.call_id)
@@ -331,168 +328,3 @@ def _unknown_reason(db: AssetDatabase, name: str, robot: str, own: set[str]) -> 
         why += (f" (closest: '{near.asset}', similarity {near.similarity:.2f}, below "
                 f"{MATCH_THRESHOLD:.2f})")
     return why
-
-
-def propose_values(llm: LLM, domain: Domain, chain: list[str], event: str, entity: str,
-                   properties: list[tuple[str, str]], *, max_values: int = 3) -> tuple[dict[str, list[str]], str]:
-    """Candidate values for properties the database does not enumerate (locations)."""
-    domain = domain_view(domain)
-    fields: dict[str, Any] = {p: (list[str], Field(default_factory=list, description=d))
-                              for p, d in properties}
-    schema = create_model("FreeValues", __base__=Answer, **fields)
-    prompt = "\n\n".join(
-        _render("property_proposal", domain, chain=chain, event=event, entity=entity,
-               property=p, description=d, max_values=max_values).rsplit("\n\nAnswer as JSON", 1)[0]
-        for p, d in properties)
-    example = "{" + ", ".join(f'"{p}": ["...", "..."]' for p, _ in properties) + "}"
-    prompt += f"\n\nAnswer as JSON: {example}"
-    got = llm.ask(prompt, schema, purpose="property_proposal", system=domain.system)
-    values = {p: [" ".join(v.split()) for v in getattr(got.value, p) if v and v.strip()][:max_values]
-              for p, _ in properties}
-    return values, got.call_id
-
-
-def property_options(db: AssetDatabase, asset: str, proposed: dict[str, list[str]]
-                     ) -> dict[str, tuple[str, list[str]]]:
-    """What the property judge chooses from for ``asset``: each property's description and
-    values (the database's states, or for free properties such as locations the ``proposed``
-    values); properties without values are left out."""
-    options: dict[str, tuple[str, list[str]]] = {}
-    for p in db.parameters_of(asset):
-        values = db.property_candidates(asset, p)
-        values = proposed.get(p, []) if values is None else values
-        if values:
-            options[p] = (db.properties[p].description, list(values))
-    return options
-
-
-def named_states(db: AssetDatabase, asset: str, event: str,
-                 options: dict[str, tuple[str, list[str]]]) -> dict[str, tuple[str, str]]:
-    """Property -> (state, phrase) for the offered properties whose state ``event``'s words name
-    ("the light turns red": light_state = turns_red), so the judge cannot contradict the event;
-    a free-valued one (a place) by the one offered value the event says whole."""
-    out = {}
-    words = name_words(event)
-    for p, (_, values) in options.items():
-        if p in db.properties and db.properties[p].states is None:
-            said = [v for v in values if has_phrase(words, name_words(v))]
-            if len(said) == 1:
-                out[p] = (said[0], said[0])
-            continue
-        named = db.named_state(asset, p, event)
-        if named is not None and named[0] in values:
-            out[p] = named
-    return out
-
-
-def property_choices(domain: Domain, asset: str, behavior: Behavior | None = None) -> Choices | None:
-    """What the domain's simulator restricts of ``asset``'s properties when explaining
-    ``behavior`` (``DomainBackend.property_choices``)."""
-    return domain_view(domain).property_choices(asset, behavior)
-
-
-def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, entity: str,
-                      options: dict[str, tuple[str, list[str]]],
-                      choices: Choices | None = None,
-                      named: dict[str, tuple[str, str]] | None = None) -> tuple[dict[str, Judged], str]:
-    """For each property (name -> (description, candidate values)) the one value that supports
-    the entity's role: the graph's binding choice, so exactly one per property that applies.
-
-    The schema asks for the role sentence first and allows only offered values; with
-    ``choices`` (the domain's dependent properties) only consistent combinations, so the model
-    states what the entity does, then picks values that agree with each other. A property that
-    does not apply to the chosen key value (a stationary actor's speed) gets no value. A state
-    the event's words name (``named``, :func:`named_states`) is the property's only offer; the
-    values it rules out are kept in ``Judged.ruled`` with the phrase.
-    """
-    domain = domain_view(domain)
-    ruled: dict[str, dict[str, str]] = {}
-    for p, (state, phrase) in (named or {}).items():
-        desc, values = options[p]
-        ruled[p] = {v: f'the event says "{phrase}", which names {p} = {state}' for v in values if v != state}
-        options = {**options, p: (desc, [state])}
-    variants = choice_models(options, choices)
-    if len(variants) == 1:  # the prompt offers what the schema allows (a named behavior's starts)
-        fields = variants[0].model_fields
-        options = {p: (d, list(get_args(fields[p].annotation))) for p, (d, _) in options.items() if p in fields}
-    choice_type = variants[0] if len(variants) == 1 else Union[tuple(variants)]  # noqa: UP007
-    schema = create_model("PropertyValues", __base__=Answer, role=(str, ...), choice=(choice_type, ...))
-    rules = []
-    if choices is not None and choices[0] is not None and len(variants) > 1:
-        key, per = choices
-        restricted = dependent(per)
-        for value, allowed in per.items():
-            for alt in alternatives(allowed):
-                if value in options[key][1] and alt is not None:
-                    parts = [f"{p} one of {' | '.join(v)}" for p, v in alt.items()]
-                    parts += [f"no {p}" for p in sorted(restricted) if p not in alt and p in options]
-                    rules.append((value, "; ".join(parts) or "nothing else"))
-    example = ", ".join(f'"{p}": "<one value>"' for p in options)
-
-    def ask(retry: str | None):
-        prompt = _render("property_edges", domain, chain=chain, event=event, entity=entity,
-                         properties=[(p, d, v) for p, (d, v) in options.items()],
-                         key=choices[0] if rules else None, rules=rules, robot=domain.robot, retry=retry)
-        prompt += ': {"role": "<what it does>", "choice": {' + example + "}}"
-        return llm.ask(prompt, schema, purpose="property_edges", system=domain.system)
-
-    got = ask(None)
-    role = " ".join(got.value.role.split())
-    if only_names(role, options):  # "drive_forward (siren = off)" says no role: asked once more
-        got = ask(role)
-        role = " ".join(got.value.role.split())
-    picked = got.value.choice.model_dump()
-    key = choices[0] if choices else None
-    out: dict[str, Judged] = {}
-    for p, (_, values) in options.items():
-        j = Judged(call_id=got.call_id)
-        chosen = picked.get(p)
-        if chosen is not None:
-            j.accepted[chosen] = f"{role} ({p} = {chosen})" if role else "supports the entity's role"
-        why = (f"not chosen by the model (it chose {chosen})" if chosen is not None
-               else f"does not apply with {key} = {picked.get(key)}")
-        j.rejected.update({v: why for v in values if v != chosen})
-        j.ruled.update(ruled.get(p, {}))
-        out[p] = j
-    return out, got.call_id
-
-
-def judge_candidates(llm: LLM, kind: str, source: str, candidates: list[str], *,
-                     domain: Domain, context: list[str] | None = None,
-                     database: AssetDatabase | None = None) -> set[str]:
-    """Edge construction for evaluation: the accepted subset of ``candidates`` for ``source``.
-
-    ``kind`` is 'event->event', 'entity->event' or 'property->entity' (for the latter, ``source``
-    is the entity's asset id, ``candidates`` are 'property: value' and ``context`` the event
-    chain, event first).
-    """
-    chain = [source, *(context or [])]
-    domain = domain_view(domain)
-    if kind == "event->event":  # as expansion decides: the judge, then the rules (ruled_out)
-        return {c for c in judge_events(llm, domain, chain, candidates).accepted
-                if ruled_out(domain, c, source) is None}
-    if kind == "entity->event":
-        db = database or domain.database()
-        return {a for a in select_entities(llm, db, domain, chain).accepted if a in candidates}
-    if kind == "property->entity":
-        # as expansion asks (one call per entity, one consistent value per property), over the
-        # labeled candidates ("property: value"): the properties they name, with those values
-        db = database or domain.database()
-        entity = source.strip()
-        if entity not in db.assets:
-            raise ConfigError(f"{entity!r} is not an asset of the {domain.name} database")
-        asked: dict[str, list[str]] = {}
-        for c in candidates:
-            prop, sep, value = c.partition(":")
-            if not sep or prop.strip() not in db.properties:
-                raise ConfigError(f"property candidate {c!r}: write 'property: value' with a property "
-                                  f"of the {domain.name} database")
-            asked.setdefault(prop.strip(), []).append(value.strip())
-        options = {p: (db.properties[p].description, v) for p, v in asked.items()}
-        event = (context or [entity])[0]
-        behavior = Behavior(text=context[-1], domain=domain.name) if context else None
-        judged, _ = select_properties(llm, domain, context or [entity], event, entity, options,
-                                      domain.property_choices(entity, behavior),
-                                      named_states(db, entity, event, options))
-        return {f"{p}: {v}" for p, j in judged.items() for v in j.accepted}
-    raise ValueError(f"unknown edge kind {kind!r}; use event->event, entity->event or property->entity")

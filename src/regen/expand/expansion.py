@@ -12,7 +12,7 @@ from regen.assets.database import AssetDatabase
 from regen.core.behavior import Behavior
 from regen.core.graph import Decision, Node, ScenarioGraph, node_id
 from regen.core.text import one_line
-from regen.expand import edges
+from regen.expand import edges, properties
 from regen.expand.dedupe import merge
 from regen.llm.client import LLM
 
@@ -288,12 +288,12 @@ class Expander:
         proposed: dict[str, list[str]] = {}
         pid = None
         if free:
-            proposed, pid = edges.propose_values(self.llm, domain, chain, ev.label,
+            proposed, pid = properties.propose_values(self.llm, domain, chain, ev.label,
                                                  asset, free, max_values=self.limits.max_values)
-        options = edges.property_options(self.db, asset, proposed)
-        judged, sid = (edges.select_properties(self.llm, domain, chain, ev.label, asset, options,
+        options = properties.property_options(self.db, asset, proposed)
+        judged, sid = (properties.select_properties(self.llm, domain, chain, ev.label, asset, options,
                                                domain.property_choices(asset, graph.behavior),
-                                               edges.named_states(self.db, asset, ev.label, options))
+                                               properties.named_states(self.db, asset, ev.label, options))
                        if options else ({}, None))
         return ent.id, proposed, pid, judged
 
@@ -307,8 +307,10 @@ class Expander:
         for eid, proposed, pid, judged in results:
             for prop, jd in judged.items():
                 for value, reason in jd.accepted.items():
+                    by = ({"by": "database"} if value in jd.named  # no call: nothing left to choose
+                          else {"by": "model", "call_id": jd.call_id})
                     self._prop_node(graph, eid, prop, value, "accepted", proposed, pid,
-                                    Decision(action="accepted", by="model", call_id=jd.call_id, reason=reason))
+                                    Decision(action="accepted", reason=reason, **by))
                 for value, reason in jd.rejected.items():
                     self._prop_node(graph, eid, prop, value, "rejected", proposed, pid,
                                     Decision(action="rejected", by="model", call_id=jd.call_id, reason=reason))

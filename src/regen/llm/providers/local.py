@@ -25,6 +25,7 @@ from regen.llm.model_files import (
     model_hint,
     verify,
 )
+from regen.llm.providers.local_sampler import llama_class
 
 log = logging.getLogger(__name__)
 
@@ -54,7 +55,7 @@ atexit.register(_close_all)
 def load_llama(path: Path, n_ctx: int = 4096) -> Any:
     """Load (once per process) and return a ``llama_cpp.Llama``."""
     try:
-        import llama_cpp
+        llama = llama_class()  # llama_cpp.Llama with the grammar-first greedy sampler
     except ImportError:
         raise DependencyNotInstalled("llama-cpp-python", "local", "the offline model") from None
     key = (str(path), n_ctx)
@@ -62,8 +63,8 @@ def load_llama(path: Path, n_ctx: int = 4096) -> Any:
         if key not in _LOADED:
             start = time.perf_counter()
             try:
-                _LOADED[key] = llama_cpp.Llama(model_path=str(path), n_ctx=n_ctx,
-                                               n_threads=_threads(), verbose=False, seed=0)
+                _LOADED[key] = llama(model_path=str(path), n_ctx=n_ctx, n_threads=_threads(),
+                                     verbose=False, seed=0)
             except (ValueError, RuntimeError, OSError) as exc:  # llama.cpp: 'Failed to load model'
                 raise ModelFileError(f"local model {path} cannot be loaded by llama.cpp ({exc}); "
                                      f"it may be truncated or of an unsupported kind: "

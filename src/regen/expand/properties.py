@@ -1,0 +1,158 @@
+"""Property edges (paper 2.1, phase 3): the values each chosen entity starts with.
+
+The database offers each property's states (free-valued ones, such as places, are proposed by
+the model first); a state the event's words name is the only offer; one model call then picks
+one consistent value per property, after a sentence on the entity's role.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Union, get_args
+
+from pydantic import Field, create_model
+
+from regen.assets.database import AssetDatabase
+from regen.core.base import Answer
+from regen.core.behavior import Behavior
+from regen.core.words import has_phrase, name_words
+from regen.expand.choices import Choices, alternatives, choice_models, dependent, only_names
+from regen.expand.edges import Domain, Judged, domain_view, render_prompt
+from regen.llm.client import LLM
+
+
+def propose_values(llm: LLM, domain: Domain, chain: list[str], event: str, entity: str,
+                   properties: list[tuple[str, str]], *, max_values: int = 3) -> tuple[dict[str, list[str]], str]:
+    """Candidate values for properties the database does not enumerate (locations)."""
+    domain = domain_view(domain)
+    fields: dict[str, Any] = {p: (list[str], Field(default_factory=list, description=d))
+                              for p, d in properties}
+    schema = create_model("FreeValues", __base__=Answer, **fields)
+    prompt = "\n\n".join(
+        render_prompt("property_proposal", domain, chain=chain, event=event, entity=entity,
+               property=p, description=d, max_values=max_values).rsplit("\n\nAnswer as JSON", 1)[0]
+        for p, d in properties)
+    example = "{" + ", ".join(f'"{p}": ["...", "..."]' for p, _ in properties) + "}"
+    prompt += f"\n\nAnswer as JSON: {example}"
+    got = llm.ask(prompt, schema, purpose="property_proposal", system=domain.system)
+    values = {p: [" ".join(v.split()) for v in getattr(got.value, p) if v and v.strip()][:max_values]
+              for p, _ in properties}
+    return values, got.call_id
+
+
+def property_options(db: AssetDatabase, asset: str, proposed: dict[str, list[str]]
+                     ) -> dict[str, tuple[str, list[str]]]:
+    """What the property judge chooses from for ``asset``: each property's description and
+    values (the database's states, or for free properties such as locations the ``proposed``
+    values); properties without values are left out."""
+    options: dict[str, tuple[str, list[str]]] = {}
+    for p in db.parameters_of(asset):
+        values = db.property_candidates(asset, p)
+        values = proposed.get(p, []) if values is None else values
+        if values:
+            options[p] = (db.properties[p].description, list(values))
+    return options
+
+
+def named_states(db: AssetDatabase, asset: str, event: str,
+                 options: dict[str, tuple[str, list[str]]]) -> dict[str, tuple[str, str]]:
+    """Property -> (state, phrase) for the offered properties whose state ``event``'s words name
+    ("the light turns red": light_state = turns_red), so the judge cannot contradict the event;
+    a free-valued one (a place) by the one offered value the event says whole."""
+    out = {}
+    words = name_words(event)
+    for p, (_, values) in options.items():
+        if p in db.properties and db.properties[p].states is None:
+            said = [v for v in values if has_phrase(words, name_words(v))]
+            if len(said) == 1:
+                out[p] = (said[0], said[0])
+            continue
+        named = db.named_state(asset, p, event)
+        if named is not None and named[0] in values:
+            out[p] = named
+    return out
+
+
+def property_choices(domain: Domain, asset: str, behavior: Behavior | None = None) -> Choices | None:
+    """What the domain's simulator restricts of ``asset``'s properties when explaining
+    ``behavior`` (``DomainBackend.property_choices``)."""
+    return domain_view(domain).property_choices(asset, behavior)
+
+
+def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, entity: str,
+                      options: dict[str, tuple[str, list[str]]],
+                      choices: Choices | None = None,
+                      named: dict[str, tuple[str, str]] | None = None) -> tuple[dict[str, Judged], str]:
+    """For each property (name -> (description, candidate values)) the one value that supports
+    the entity's role: the graph's binding choice, so exactly one per property that applies.
+
+    The schema asks for the role sentence first and allows only offered values; with
+    ``choices`` (the domain's dependent properties) only consistent combinations, so the model
+    states what the entity does, then picks values that agree with each other. A property that
+    does not apply to the chosen key value (a stationary actor's speed) gets no value. A state
+    the event's words name (``named``, :func:`named_states`) is the property's only offer; the
+    values it rules out are kept in ``Judged.ruled`` with the phrase.
+    """
+    domain = domain_view(domain)
+    ruled: dict[str, dict[str, str]] = {}
+    for p, (state, phrase) in (named or {}).items():
+        desc, values = options[p]
+        ruled[p] = {v: f'the event says "{phrase}", which names {p} = {state}' for v in values if v != state}
+        options = {**options, p: (desc, [state])}
+    variants = choice_models(options, choices)
+    if len(variants) == 1:  # the prompt offers what the schema allows (a named behavior's starts)
+        fields = variants[0].model_fields
+        options = {p: (d, list(get_args(fields[p].annotation))) for p, (d, _) in options.items() if p in fields}
+    if len(variants) == 1 and all(len(v) == 1 for _, v in options.values()):
+        return _decided(options, ruled), ""
+    choice_type = variants[0] if len(variants) == 1 else Union[tuple(variants)]  # noqa: UP007
+    schema = create_model("PropertyValues", __base__=Answer, role=(str, ...), choice=(choice_type, ...))
+    rules = []
+    if choices is not None and choices[0] is not None and len(variants) > 1:
+        key, per = choices
+        restricted = dependent(per)
+        for value, allowed in per.items():
+            for alt in alternatives(allowed):
+                if value in options[key][1] and alt is not None:
+                    parts = [f"{p} one of {' | '.join(v)}" for p, v in alt.items()]
+                    parts += [f"no {p}" for p in sorted(restricted) if p not in alt and p in options]
+                    rules.append((value, "; ".join(parts) or "nothing else"))
+    example = ", ".join(f'"{p}": "<one value>"' for p in options)
+
+    def ask(retry: str | None):
+        prompt = render_prompt("property_edges", domain, chain=chain, event=event, entity=entity,
+                         properties=[(p, d, v) for p, (d, v) in options.items()],
+                         key=choices[0] if rules else None, rules=rules, robot=domain.robot, retry=retry)
+        prompt += ': {"role": "<what it does>", "choice": {' + example + "}}"
+        return llm.ask(prompt, schema, purpose="property_edges", system=domain.system)
+
+    got = ask(None)
+    role = " ".join(got.value.role.split())
+    if only_names(role, options):  # "drive_forward (siren = off)" says no role: asked once more
+        got = ask(role)
+        role = " ".join(got.value.role.split())
+    picked = got.value.choice.model_dump()
+    key = choices[0] if choices else None
+    out: dict[str, Judged] = {}
+    for p, (_, values) in options.items():
+        j = Judged(call_id=got.call_id)
+        chosen = picked.get(p)
+        if chosen is not None:
+            j.accepted[chosen] = f"{role} ({p} = {chosen})" if role else "supports the entity's role"
+        why = (f"not chosen by the model (it chose {chosen})" if chosen is not None
+               else f"does not apply with {key} = {picked.get(key)}")
+        j.rejected.update({v: why for v in values if v != chosen})
+        j.ruled.update(ruled.get(p, {}))
+        out[p] = j
+    return out, got.call_id
+
+
+def _decided(options: dict[str, tuple[str, list[str]]], ruled: dict[str, dict[str, str]]
+             ) -> dict[str, Judged]:
+    """Every property has one value left (named by the event, or the only one offered): no call;
+    each value is accepted as decided by the database (``Judged.named``), with the reason."""
+    out = {}
+    for p, (_, (value,)) in options.items():
+        said = next(iter(ruled.get(p, {}).values()), None)
+        why = said or f"the only value of {p} offered for this entity"
+        out[p] = Judged(call_id="", accepted={value: why}, named={value: why}, ruled=dict(ruled.get(p, {})))
+    return out
