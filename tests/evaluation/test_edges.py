@@ -254,3 +254,29 @@ def test_a_place_the_event_says_is_the_location_whatever_the_model_picks():
     assert named_states(db, "fruit", "the fruit is going bad", options) == {}
     both = {"location": ("where", ["on the counter", "counter"])}
     assert named_states(db, "fruit", event, both) == {}
+
+
+def test_a_place_the_event_names_by_its_words_or_by_going_elsewhere_is_the_start() -> None:
+    from regen.assets.database import database_of
+    from regen.expand.properties import named_states
+
+    db = database_of("manipulation")
+    rack = {"location": ("where", ["on the drying rack", "inside the cabinet"])}
+    # the place's own words, not said whole
+    assert named_states(db, "dishes", "the clean plates are drying next to the sink", rack) == {
+        "location": ("on the drying rack", "drying")}
+    assert named_states(db, "dishes", "plates drying in the cabinet", rack) == {}  # both places' words
+    # the item has still to go somewhere: the place said after that, or in the object the task
+    # acts on, is where it goes; the start is the one other place
+    fridge = {"location": ("where", ["on the table", "inside the fridge"])}
+    assert named_states(db, "bottle", "the milk has to go back into the fridge", fridge) == {
+        "location": ("on the table", "go back")}
+    assert named_states(db, "bottle", "the milk bottle must be chilled", fridge, frozenset({"fridge"})) == {
+        "location": ("on the table", "be chilled")}
+    assert named_states(db, "bottle", "the milk bottle must be chilled", fridge) == {}  # goes where?
+    said = {"location": ("where", ["on the table", "in the fridge"])}  # said whole, but as the goal
+    assert named_states(db, "bottle", "the milk has to go back in the fridge", said) == {
+        "location": ("on the table", "go back")}
+    # a device's power in the words of what it does
+    assert db.named_state("laptop", "power", "the laptop's battery died") == ("off", "battery died")
+    assert db.named_state("tv", "power", "a match is blaring on the tv") == ("on", "blaring")

@@ -232,7 +232,7 @@ def context_chain(context: str | None, source: str) -> list[str]:
 
 
 def model_judge(llm) -> Judge:
-    """The project's own edge construction (``regen.expand.edges:judge_candidates``) as a Judge:
+    """The project's own edge construction (``regen.expand.construct:judge_candidates``) as a Judge:
     the same calls expansion makes (one yes/no question per candidate cause, one entity
     selection per event, one property choice per entity), plus the rules it applies after them.
 
@@ -242,7 +242,7 @@ def model_judge(llm) -> Judge:
     try:
         from regen.expand.construct import judge_candidates
     except ImportError as exc:
-        raise ConfigError("edge construction (regen.expand.edges.judge_candidates) is not "
+        raise ConfigError("edge construction (regen.expand.construct.judge_candidates) is not "
                           "available in this installation") from exc
 
     def judge(kind: str, source: str, candidates: list[str], *, context: str | None = None,

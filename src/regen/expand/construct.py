@@ -47,6 +47,6 @@ def judge_candidates(llm: LLM, kind: str, source: str, candidates: list[str], *,
         behavior = Behavior(text=context[-1], domain=domain.name) if context else None
         judged, _ = select_properties(llm, domain, context or [entity], event, entity, options,
                                       domain.property_choices(entity, behavior),
-                                      named_states(db, entity, event, options))
+                                      named_states(db, entity, event, options, domain.own_objects(behavior)))
         return {f"{p}: {v}" for p, j in judged.items() for v in j.accepted}
     raise ValueError(f"unknown edge kind {kind!r}; use event->event, entity->event or property->entity")

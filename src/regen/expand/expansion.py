@@ -288,13 +288,15 @@ class Expander:
         proposed: dict[str, list[str]] = {}
         pid = None
         if free:
-            proposed, pid = properties.propose_values(self.llm, domain, chain, ev.label,
-                                                 asset, free, max_values=self.limits.max_values)
+            proposed, pid = properties.propose_values(self.llm, domain, chain, ev.label, asset, free,
+                                                      max_values=self.limits.max_values)
         options = properties.property_options(self.db, asset, proposed)
-        judged, sid = (properties.select_properties(self.llm, domain, chain, ev.label, asset, options,
-                                               domain.property_choices(asset, graph.behavior),
-                                               properties.named_states(self.db, asset, ev.label, options))
-                       if options else ({}, None))
+        judged: dict = {}
+        if options:
+            named = properties.named_states(self.db, asset, ev.label, options,
+                                            domain.own_objects(graph.behavior))
+            judged, _ = properties.select_properties(self.llm, domain, chain, ev.label, asset, options,
+                                                     domain.property_choices(asset, graph.behavior), named)
         return ent.id, proposed, pid, judged
 
     def attach_properties(self, graph: ScenarioGraph) -> None:

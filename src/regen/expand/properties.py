@@ -14,7 +14,7 @@ from pydantic import Field, create_model
 from regen.assets.database import AssetDatabase
 from regen.core.base import Answer
 from regen.core.behavior import Behavior
-from regen.core.words import has_phrase, name_words
+from regen.core.words import has_phrase, lowered, name_words
 from regen.expand.choices import Choices, alternatives, choice_models, dependent, only_names
 from regen.expand.edges import Domain, Judged, domain_view, render_prompt
 from regen.llm.client import LLM
@@ -53,18 +53,58 @@ def property_options(db: AssetDatabase, asset: str, proposed: dict[str, list[str
     return options
 
 
-def named_states(db: AssetDatabase, asset: str, event: str,
-                 options: dict[str, tuple[str, list[str]]]) -> dict[str, tuple[str, str]]:
+#: Words of a place that say where, not what: left out when a place's own words are compared.
+_WHERE = frozenset({"on", "in", "inside", "into", "onto", "near", "next", "to", "by", "beside", "at",
+                    "under", "underneath", "below", "above", "over", "behind", "front", "of", "left",
+                    "right", "top", "outside", "out", "reach", "close", "from", "against", "between",
+                    "around", "along", "across", "up", "down", "off", "middle", "edge", "corner", "side"})
+
+#: Phrases that say the entity has still to go somewhere: a place after one is where it goes,
+#: not where it starts ("the milk has to go back into the fridge").
+STILL_TO_GO = ("go back", "goes back", "put away", "be put", "be stored", "be chilled", "needs chilling",
+               "need chilling", "be refrigerated", "be frozen", "be kept cold", "has to go", "have to go",
+               "must go", "needs to go", "need to go", "belongs in", "belong in", "be returned", "be tidied")
+
+
+def _place_words(value: str) -> list[str]:
+    return [w for w in name_words(value) if w not in _WHERE]
+
+
+def _named_place(values: list[str], event: str, own: frozenset[str]) -> tuple[str, str] | None:
+    """(place, phrase) of the one offered place the event names: the one it says whole, else the
+    one whose own words it uses ("drying next to the sink": "on the drying rack"). Where the
+    event says the entity has still to go, a place it says after that, or one in the object the
+    task acts on, is where it goes, so the start is the one other place left."""
+    low = lowered(event)
+    goes = next((g for g in STILL_TO_GO if has_phrase(name_words(low), name_words(g))), None)
+    if goes is not None:
+        after = set(name_words(low.split(goes, 1)[1])) if goes in low else set()
+        away = after | {w for o in own for w in name_words(o)}
+        left = [v for v in values if not set(_place_words(v)) & away]
+        return (left[0], goes) if len(left) == 1 and len(left) < len(values) else None
+    words = name_words(event)
+    said = [v for v in values if has_phrase(words, name_words(v))]
+    if len(said) == 1:
+        return said[0], said[0]
+    if said:
+        return None
+    shared = {v: [w for w in _place_words(v) if w in words] for v in values}
+    used = [v for v, ws in shared.items() if ws]
+    return (used[0], " ".join(shared[used[0]])) if len(used) == 1 else None
+
+
+def named_states(db: AssetDatabase, asset: str, event: str, options: dict[str, tuple[str, list[str]]],
+                 own: frozenset[str] = frozenset()) -> dict[str, tuple[str, str]]:
     """Property -> (state, phrase) for the offered properties whose state ``event``'s words name
     ("the light turns red": light_state = turns_red), so the judge cannot contradict the event;
-    a free-valued one (a place) by the one offered value the event says whole."""
+    a free-valued one (a place) as :func:`_named_place` finds it, with ``own`` the objects the
+    task acts on (``DomainBackend.own_objects``)."""
     out = {}
-    words = name_words(event)
     for p, (_, values) in options.items():
         if p in db.properties and db.properties[p].states is None:
-            said = [v for v in values if has_phrase(words, name_words(v))]
-            if len(said) == 1:
-                out[p] = (said[0], said[0])
+            place = _named_place(values, event, own)
+            if place is not None:
+                out[p] = place
             continue
         named = db.named_state(asset, p, event)
         if named is not None and named[0] in values:
