@@ -175,7 +175,7 @@ def propose_events(llm: LLM, domain: Domain, chain: list[str], *, prior: str | N
     """Candidate causes of ``chain[0]`` (chain runs from the source node to the behavior)."""
     domain = domain_view(domain)
     prompt = render_prompt("event_proposal", domain, chain=chain, source=chain[0],
-                    prior=prior, max_causes=max_causes)
+                           prior=prior, max_causes=max_causes)
     got = llm.ask(prompt, EventProposal, purpose="event_proposal", system=domain.system)
     return got.value.causes[:max_causes], got.call_id
 
@@ -249,7 +249,7 @@ def judge_entity(llm: LLM, db: AssetDatabase, domain: Domain, event: str, asset:
     """One yes/no call: does ``asset`` take part in ``event``? (with the domain's worked examples)"""
     domain = domain_view(domain)
     prompt = render_prompt("entity_edge", domain, event=event, entity=asset,
-                     description=db.assets[asset].description)
+                           description=db.assets[asset].description)
     return llm.ask(prompt, YesNo, purpose="entity_judge", system=domain.system)
 
 
@@ -268,7 +268,7 @@ def select_entities(llm: LLM, db: AssetDatabase, domain: Domain, chain: list[str
     own = domain.own_objects(behavior)
     options = [a for a in db.entities() if a not in own]
     prompt = render_prompt("entity_edges", domain, chain=chain, source=chain[0],
-                    entities=[(a, db.assets[a].description) for a in options])
+                           entities=[(a, db.assets[a].description) for a in options])
     got = llm.ask(prompt, EntitySelection, purpose="entity_edges", system=domain.system)
     out = Judged(call_id=got.call_id)
     for asset, why in named_entities(db, domain, chain[0], own=own).items():

@@ -29,7 +29,7 @@ def propose_values(llm: LLM, domain: Domain, chain: list[str], event: str, entit
     schema = create_model("FreeValues", __base__=Answer, **fields)
     prompt = "\n\n".join(
         render_prompt("property_proposal", domain, chain=chain, event=event, entity=entity,
-               property=p, description=d, max_values=max_values).rsplit("\n\nAnswer as JSON", 1)[0]
+                      property=p, description=d, max_values=max_values).rsplit("\n\nAnswer as JSON", 1)[0]
         for p, d in properties)
     example = "{" + ", ".join(f'"{p}": ["...", "..."]' for p, _ in properties) + "}"
     prompt += f"\n\nAnswer as JSON: {example}"
@@ -61,7 +61,7 @@ _WHERE = frozenset({"on", "in", "inside", "into", "onto", "near", "next", "to", 
 
 #: Phrases that say the entity has still to go somewhere: a place after one is where it goes,
 #: not where it starts ("the milk has to go back into the fridge").
-STILL_TO_GO = ("go back", "goes back", "put away", "be put", "be stored", "be chilled", "needs chilling",
+_STILL_TO_GO = ("go back", "goes back", "put away", "be put", "be stored", "be chilled", "needs chilling",
                "need chilling", "be refrigerated", "be frozen", "be kept cold", "has to go", "have to go",
                "must go", "needs to go", "need to go", "belongs in", "belong in", "be returned", "be tidied")
 
@@ -75,14 +75,13 @@ def _named_place(values: list[str], event: str, own: frozenset[str]) -> tuple[st
     one whose own words it uses ("drying next to the sink": "on the drying rack"). Where the
     event says the entity has still to go, a place it says after that, or one in the object the
     task acts on, is where it goes, so the start is the one other place left."""
-    low = lowered(event)
-    goes = next((g for g in STILL_TO_GO if has_phrase(name_words(low), name_words(g))), None)
+    low, words = lowered(event), name_words(event)
+    goes = next((g for g in _STILL_TO_GO if has_phrase(words, name_words(g))), None)
     if goes is not None:
         after = set(name_words(low.split(goes, 1)[1])) if goes in low else set()
         away = after | {w for o in own for w in name_words(o)}
         left = [v for v in values if not set(_place_words(v)) & away]
         return (left[0], goes) if len(left) == 1 and len(left) < len(values) else None
-    words = name_words(event)
     said = [v for v in values if has_phrase(words, name_words(v))]
     if len(said) == 1:
         return said[0], said[0]
@@ -160,8 +159,9 @@ def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, en
 
     def ask(retry: str | None):
         prompt = render_prompt("property_edges", domain, chain=chain, event=event, entity=entity,
-                         properties=[(p, d, v) for p, (d, v) in options.items()],
-                         key=choices[0] if rules else None, rules=rules, robot=domain.robot, retry=retry)
+                               properties=[(p, d, v) for p, (d, v) in options.items()],
+                               key=choices[0] if rules else None, rules=rules, robot=domain.robot,
+                               retry=retry)
         prompt += ': {"role": "<what it does>", "choice": {' + example + "}}"
         return llm.ask(prompt, schema, purpose="property_edges", system=domain.system)
 
