@@ -34,10 +34,19 @@ def cp_model() -> Any:
     return cp
 
 
+#: Wall time a solve may take, as a multiple of its limit: only a safety net. The limit itself is
+#: CP-SAT's deterministic time (its own work count, about seconds of one core), so a machine
+#: busy with other work finds the same answers, only later.
+WALL_TIME_FACTOR = 20.0
+
+
 def make_solver(time_limit: float, *, seed: int = 0) -> Any:
-    """A CP-SAT solver limited to ``time_limit`` [s] of wall time, deterministic for ``seed``."""
+    """A CP-SAT solver limited to ``time_limit`` of deterministic time (CP-SAT's measure of its
+    work, about seconds of one core), so the outcome is the same on a loaded machine, and to
+    ``WALL_TIME_FACTOR`` times that of wall time; deterministic for ``seed``."""
     solver = cp_model().CpSolver()
-    solver.parameters.max_time_in_seconds = time_limit
+    solver.parameters.max_deterministic_time = time_limit
+    solver.parameters.max_time_in_seconds = WALL_TIME_FACTOR * time_limit
     solver.parameters.num_workers = 1
     solver.parameters.random_seed = seed
     solver.parameters.catch_sigint_signal = False
@@ -94,7 +103,7 @@ class NamedModel:
         return lit
 
     def solve(self, time_limit: float, *, seed: int = 0) -> Outcome:
-        """Solve with every named constraint assumed (``time_limit`` [s]); when infeasible, the
+        """Solve with every named constraint assumed (``time_limit`` [s] of solver work); when infeasible, the
         outcome's ``conflicts`` are a minimal conflict set (empty when the constraints nobody
         named conflict on their own)."""
         t0 = time.perf_counter()
@@ -111,7 +120,7 @@ class NamedModel:
 
     def minimise(self, names: list[str], time_limit: float) -> list[str]:
         """Deletion filter: drop each name of an infeasible set whose rest stays infeasible
-        (each trial solve at most ``time_limit`` [s]; one that times out keeps its name)."""
+        (each trial solve at most ``time_limit`` [s] of solver work; one that runs out keeps its name)."""
         trial_model = self.m.clone()
         trial_model.clear_objective()  # feasibility is all a trial asks
         keep = list(names)

@@ -345,7 +345,7 @@ def solve_placement(requests: list[Request], geometry: SceneGeometry, *, seed: i
             why = "the objects do not fit the free floor and surfaces at all"
         return PlacementResult("infeasible", conflicts=[why], core=out.conflicts, wall_time=wall)
     name = out.cp_status.lower()
-    return PlacementResult(out.status, conflicts=[f"CP-SAT returned {name} within {time_limit:.0f} s"],
+    return PlacementResult(out.status, conflicts=[f"CP-SAT returned {name} within {time_limit:.0f} s of solver work"],
                            wall_time=wall)
 
 

@@ -48,8 +48,8 @@ def solved_params(M: PlacementModel, value: Callable[[Any], int],
 
 
 def solve(ego: EgoTemplate, actors: list[ActorSpec], *, seed: int = 0, time_limit: float = 2.0) -> Solution:
-    """Solve the placement model (``time_limit`` [s]); an infeasible model names its
-    conflicting constraints."""
+    """Solve the placement model (``time_limit`` [s] of solver work,
+    :func:`regen.cpsat.make_solver`); an infeasible model names its conflicting constraints."""
     t0 = time.perf_counter()
     M = placement_model(ego, actors)
     specs = [for_actor(a.asset, a.primitive) for a in actors]

@@ -20,7 +20,7 @@ from regen.driving.world.actors import ActorSpec, RoleChoice
 from regen.driving.world.egos import EgoTemplate
 from regen.errors import GroundingError
 
-PROBE_TIME_LIMIT = 0.5  # [s] per solve; the single-actor models solve in milliseconds
+PROBE_TIME_LIMIT = 0.5  # [s] of solver work per solve (regen.cpsat); the single-actor models take milliseconds
 
 
 @lru_cache(maxsize=4096)
