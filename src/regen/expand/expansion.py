@@ -291,7 +291,7 @@ class Expander:
             proposed, pid = properties.propose_values(self.llm, domain, chain, ev.label, asset, free,
                                                       max_values=self.limits.max_values)
         options = properties.property_options(self.db, asset, proposed)
-        judged: dict = {}
+        judged: dict[str, edges.Judged] = {}
         if options:
             named = properties.named_states(self.db, asset, ev.label, options,
                                             domain.own_objects(graph.behavior))
@@ -309,10 +309,11 @@ class Expander:
         for eid, proposed, pid, judged in results:
             for prop, jd in judged.items():
                 for value, reason in jd.accepted.items():
-                    by = ({"by": "database"} if value in jd.named  # no call: nothing left to choose
-                          else {"by": "model", "call_id": jd.call_id})
-                    self._prop_node(graph, eid, prop, value, "accepted", proposed, pid,
-                                    Decision(action="accepted", reason=reason, **by))
+                    if value in jd.named:  # no call: nothing was left to choose
+                        decision = Decision(action="accepted", by="database", reason=reason)
+                    else:
+                        decision = Decision(action="accepted", by="model", call_id=jd.call_id, reason=reason)
+                    self._prop_node(graph, eid, prop, value, "accepted", proposed, pid, decision)
                 for value, reason in jd.rejected.items():
                     self._prop_node(graph, eid, prop, value, "rejected", proposed, pid,
                                     Decision(action="rejected", by="model", call_id=jd.call_id, reason=reason))
