@@ -13,7 +13,6 @@ from pydantic import Field, create_model
 
 from regen.assets.database import AssetDatabase
 from regen.core.base import Answer
-from regen.core.behavior import Behavior
 from regen.core.words import has_phrase, lowered, name_words
 from regen.expand.choices import Choices, alternatives, choice_models, dependent, only_names
 from regen.expand.edges import Domain, Judged, domain_view, render_prompt
@@ -111,12 +110,6 @@ def named_states(db: AssetDatabase, asset: str, event: str, options: dict[str, t
     return out
 
 
-def property_choices(domain: Domain, asset: str, behavior: Behavior | None = None) -> Choices | None:
-    """What the domain's simulator restricts of ``asset``'s properties when explaining
-    ``behavior`` (``DomainBackend.property_choices``)."""
-    return domain_view(domain).property_choices(asset, behavior)
-
-
 def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, entity: str,
                       options: dict[str, tuple[str, list[str]]],
                       choices: Choices | None = None,
@@ -133,16 +126,18 @@ def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, en
     """
     domain = domain_view(domain)
     ruled: dict[str, dict[str, str]] = {}
+    said: dict[str, str] = {}  # property -> why the event's words decide it
     for p, (state, phrase) in (named or {}).items():
         desc, values = options[p]
-        ruled[p] = {v: f'the event says "{phrase}", which names {p} = {state}' for v in values if v != state}
+        said[p] = f'the event says "{phrase}", which names {p} = {state}'
+        ruled[p] = {v: said[p] for v in values if v != state}
         options = {**options, p: (desc, [state])}
     variants = choice_models(options, choices)
     if len(variants) == 1:  # the prompt offers what the schema allows (a named behavior's starts)
         fields = variants[0].model_fields
         options = {p: (d, list(get_args(fields[p].annotation))) for p, (d, _) in options.items() if p in fields}
     if len(variants) == 1 and all(len(v) == 1 for _, v in options.values()):
-        return _decided(options, ruled), ""
+        return _decided(options, said, ruled), ""
     choice_type = variants[0] if len(variants) == 1 else Union[tuple(variants)]  # noqa: UP007
     schema = create_model("PropertyValues", __base__=Answer, role=(str, ...), choice=(choice_type, ...))
     rules = []
@@ -186,13 +181,12 @@ def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, en
     return out, got.call_id
 
 
-def _decided(options: dict[str, tuple[str, list[str]]], ruled: dict[str, dict[str, str]]
-             ) -> dict[str, Judged]:
-    """Every property has one value left (named by the event, or the only one offered): no call;
-    each value is accepted as decided by the database (``Judged.named``), with the reason."""
+def _decided(options: dict[str, tuple[str, list[str]]], said: dict[str, str],
+             ruled: dict[str, dict[str, str]]) -> dict[str, Judged]:
+    """Every property has one value left (named by the event, ``said``, or the only one
+    offered): no call; each value is accepted as decided by the database (``Judged.named``)."""
     out = {}
     for p, (_, (value,)) in options.items():
-        said = next(iter(ruled.get(p, {}).values()), None)
-        why = said or f"the only value of {p} offered for this entity"
+        why = said.get(p, f"the only value of {p} offered for this entity")
         out[p] = Judged(call_id="", accepted={value: why}, named={value: why}, ruled=dict(ruled.get(p, {})))
     return out

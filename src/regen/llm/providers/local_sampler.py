@@ -31,6 +31,7 @@ class GrammarFirstGreedy:
         self._n_vocab = n_vocab
         self._one = (llama_cpp.llama_token_data * 1)()
         self._all: Any = None  # the whole vocabulary, built on the first refusal
+        self._view: Any = None
 
     def _apply(self, data: Any, size: int) -> None:
         arr = self._lib.llama_token_data_array(data=data, size=size, selected=-1, sorted=False)
@@ -42,13 +43,14 @@ class GrammarFirstGreedy:
         self._one[0].id, self._one[0].logit, self._one[0].p = best, float(logits[best]), 0.0
         self._apply(self._one, 1)
         if not np.isfinite(self._one[0].logit):  # refused: the grammar over every token, then the best
-            if self._all is None:
+            if self._all is None:  # built once: the ids stay, the grammar only lowers logits
                 self._all = (self._lib.llama_token_data * self._n_vocab)()
-            view = np.ctypeslib.as_array(self._all).view(
-                np.dtype([("id", np.int32), ("logit", np.float32), ("p", np.float32)]))
-            view["id"] = np.arange(self._n_vocab, dtype=np.int32)
+                self._view = np.ctypeslib.as_array(self._all).view(
+                    np.dtype([("id", np.int32), ("logit", np.float32), ("p", np.float32)]))
+                self._view["id"] = np.arange(self._n_vocab, dtype=np.int32)
+                self._view["p"] = 0.0
+            view = self._view
             view["logit"] = logits
-            view["p"] = 0.0
             self._apply(self._all, self._n_vocab)
             best = int(np.argmax(view["logit"]))
             if not np.isfinite(view["logit"][best]):
