@@ -27,6 +27,7 @@ if TYPE_CHECKING:
     from regen.core.verdict import Verdict
     from regen.harness.contract import PolicyHarness
     from regen.llm.client import LLM
+    from regen.verify.causal import ReferenceWorld
 
 #: Well-known roles of the files ``render`` returns; the report shows them as pictures.
 ANIMATION = "animation"
@@ -236,6 +237,14 @@ class DomainBackend(ABC):
         """How ``regen test`` runs a policy in this domain's scenarios
         (:class:`regen.harness.contract.PolicyHarness`); None: the domain tests no policies."""
         return None
+
+    def reference_world(self, scenario: Scenario, cause: list[str]) -> ReferenceWorld:
+        """The scenario's world with the domain's reference robot, for the but-for check of
+        ``cause`` (entity names; :mod:`regen.verify.causal`). Default: raises
+        :class:`~regen.verify.causal.NotCheckable` (the domain has no reference robot)."""
+        from regen.verify.causal import NotCheckable
+
+        raise NotCheckable(f"the {self.name} domain has no reference robot to check causes with")
 
     def config(self, scenario: Scenario) -> dict:
         """The scenario in the paper's config form (narrative, entities, vehicles, fsm)."""

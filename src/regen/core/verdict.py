@@ -38,6 +38,49 @@ class Fidelity(Model):
     call_id: str | None = None  # the model call that decided, when ``by`` is 'model'
 
 
+CausalStatus = Literal["caused", "not_necessary", "not_sufficient", "confounded", "not_checked"]
+
+
+class ReferenceRun(Model):
+    """The reference robot (a careful driver, say) in one world of the but-for check."""
+
+    removed: list[str] = Field(default_factory=list)  # entities left out of this world
+    shown: bool  # it showed the behavior class, after the cause where the world has one
+    onset: float | None = None  # [s] when its reaction started
+    cause_at: float | None = None  # [s] when the cause first showed (None: never, or no cause)
+    summary: str = ""  # what it did, in words ("stopped at t = 6.1 s, 9.8 m before child1")
+
+
+class EntityCheck(Model):
+    """One entity that is not the cause: does it explain the behavior alone, is it needed?"""
+
+    entity: str
+    alone_shows: bool | None = None  # the cause removed, this entity kept: the behavior is shown
+    without_it_shows: bool | None = None  # only this entity removed: the behavior is still shown
+
+
+class Causal(Model):
+    """Whether the cause *causes* the behavior, decided by simulation with a reference robot
+    that reacts only to what it perceives (never the scripted one, which acts whatever the world
+    does). ``caused``: with the cause the reference shows the behavior after the cause shows,
+    and with the cause removed (the rest of the world and the solved parameters kept) it does
+    not. ``not_sufficient``: the reference ignores the cause. ``not_necessary``: it shows the
+    behavior without the cause too (``reason`` names what else explains it). ``confounded``:
+    another entity explains the behavior on its own (``confounders`` names it).
+    ``not_checked``: ``reason`` says why."""
+
+    status: CausalStatus
+    reason: str
+    by: str = ""  # who reacted ("reference driver (IDM, MOBIL)")
+    behavior: str = ""  # the behavior class checked ("stops", "changes lane")
+    cause: list[str] = Field(default_factory=list)  # the entities taken as the cause
+    cause_from: str = ""  # how they were found ("named by the cause's words", ...)
+    with_cause: ReferenceRun | None = None
+    without_cause: ReferenceRun | None = None
+    others: list[EntityCheck] = Field(default_factory=list)
+    confounders: list[str] = Field(default_factory=list)
+
+
 class Verdict(Model):
     """``verified``: the FSM as grounded was accepted. ``verified_after_relaxation``: accepted
     only after over-strict stages were relaxed; ``relaxations`` says which and why.
@@ -58,6 +101,9 @@ class Verdict(Model):
     fallbacks: list[str] = Field(default_factory=list)  # scenario parts rules wrote for the model
     conflicts: list[str] = Field(default_factory=list)
     fidelity: Fidelity | None = None  # what the cause names against what the scenario shows
+    #: whether the cause causes the behavior (a reference robot with and without it); beside
+    #: the status, never instead of it
+    causal: Causal | None = None
 
     @model_validator(mode="after")
     def _feasible_matches_status(self) -> Verdict:

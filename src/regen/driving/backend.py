@@ -261,6 +261,12 @@ class DrivingBackend(DomainBackend):
 
         return DrivingHarness()
 
+    def reference_world(self, scenario: Scenario, cause: list[str]):
+        """The reference driver in the scenario's world (:mod:`regen.driving.testing.causal`)."""
+        from regen.driving.testing.causal import reference_world
+
+        return reference_world(scenario, cause)
+
     def config(self, scenario: Scenario) -> dict:
         from regen.driving.export.config import paper_config
 

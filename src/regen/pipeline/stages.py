@@ -26,11 +26,11 @@ from regen.core.graph import CausePath
 from regen.core.io import cannot_write
 from regen.core.scenario import Scenario
 from regen.core.trace import Trace
-from regen.core.verdict import Verdict
+from regen.core.verdict import Causal, Verdict
 from regen.errors import LLMError, MalformedAnswerError, RegenError, UngroundableError
 from regen.llm.client import LLM
 from regen.runfolder import ScenarioFolder, read_json, read_model, read_text
-from regen.verify import fidelity
+from regen.verify import causal, fidelity
 from regen.verify.monitor import validate_fsm
 
 log = logging.getLogger(__name__)
@@ -159,6 +159,9 @@ def simulate_stage(domain: str, scenario_dir: str, pictures: bool = True) -> dic
                                      own=backend.own_objects(judged.behavior), trace=sim.trace)
         verdict = fidelity.with_fidelity(verdict, fidelity.combine(rules, scenario.fidelity))
         timings["verify"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        verdict = verdict.model_copy(update={"causal": causal_stage(backend, judged, verdict, folder)})
+        timings["causal"] = time.perf_counter() - t0
     except KeyboardInterrupt:
         raise
     except Exception as exc:
@@ -181,6 +184,37 @@ def simulate_stage(domain: str, scenario_dir: str, pictures: bool = True) -> dic
     folder.add_timings(timings)
     folder.write_verdict(verdict)
     return {"verdict": verdict.model_dump(mode="json"), "timings": timings}
+
+
+#: statuses whose FSM played out: the but-for check has something to check
+_PLAYED_OUT = ("verified", "verified_after_relaxation", "unfaithful")
+
+
+def causal_stage(backend: DomainBackend, scenario: Scenario, verdict: Verdict, folder: ScenarioFolder
+                 ) -> Causal:
+    """Whether the scenario's cause causes its robot's behavior (:mod:`regen.verify.causal`):
+    the domain's reference robot with and without the cause. A scenario whose FSM did not play
+    out, or a domain without a reference robot, is ``not_checked`` with the reason; a failure of
+    the check is ``not_checked`` with the failure (kept in error.txt), never the verdict's."""
+    if verdict.status not in _PLAYED_OUT:
+        return causal.not_checked(f"the scenario did not play out ({verdict.status}): no behavior to explain")
+    graph = read_model(folder / folder.PATH, CausePath).value
+    cause, others, how = causal.split_cast(
+        scenario, backend.database(), robot=_robot_names(backend), own=backend.own_objects(scenario.behavior),
+        graph_assets=[e.asset for e in graph.entities] if graph is not None else None)
+    try:
+        world = backend.reference_world(scenario, cause)
+        return causal.but_for(world, cause, others, cause_from=how)
+    except causal.NotCheckable as exc:
+        return causal.not_checked(str(exc))
+    except KeyboardInterrupt:
+        raise
+    except Exception as exc:
+        if cannot_write(exc, folder.path):
+            raise
+        log.warning("the causal check of %s failed", folder.name, exc_info=True)
+        folder.write_error(f"causal check failed:\n{traceback.format_exc()}")
+        return causal.not_checked(f"the reference run failed: {type(exc).__name__}: {exc}")
 
 
 def _draw(backend: DomainBackend, scenario: Scenario, trace: Trace, verdict: Verdict,

@@ -97,6 +97,9 @@ class EgoTemplate:
     # Ego predicates that never hold for this template -> what the reason adds (often nothing).
     never: ClassVar[Mapping[str, str]] = MappingProxyType({})
     waits_at_start: ClassVar[bool] = False  # stationary at first: a red light ahead may turn green
+    #: The behavior class a reference driver must show for the cause to explain this behavior
+    #: (:mod:`regen.driving.testing.causal`): 'stops', 'slows down', 'drives off', 'changes lane'.
+    reaction_class: ClassVar[str] = "stops"
     passes_junction: ClassVar[str | None] = None  # why no role may need a junction, if so
     starts_elsewhere: ClassVar[str | None] = None  # why no role may start behind the ego, if so
 

@@ -16,6 +16,7 @@ class ChangeLane(EgoTemplate):
     keywords = (("lane",), ("chang", "switch", "merge"))
     example = "the ego vehicle changes lanes while driving forward"
     reaction_predicates = frozenset({"changing_lane"})
+    reaction_class = "changes lane"
     never = MappingProxyType({"turning": "", "stopped": "", "braking": "", "brake_lights_on": "",
                               "accelerating": ""})
 

@@ -14,6 +14,7 @@ class DriveForward(EgoTemplate):
     keywords = (("driv", "go", "start", "accelerat", "forward", "move"),)
     example = "the ego drives forward from stationary"
     reaction_predicates = frozenset({"moving", "accelerating", "steady"})
+    reaction_class = "drives off"
     never = MappingProxyType({"turning": "", "changing_lane": "", "braking": "", "brake_lights_on": ""})
     waits_at_start = True
 

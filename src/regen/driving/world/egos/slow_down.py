@@ -14,6 +14,7 @@ class SlowDown(EgoTemplate):
     keywords = (("slow", "decelerat"),)
     example = "the ego slows down"
     reaction_predicates = frozenset({"braking", "slower_than", "brake_lights_on"})
+    reaction_class = "slows down"
     never = MappingProxyType({**NOT_ON_STRAIGHT, "stopped": ""})
 
     def ego_states(self) -> tuple[State, list[State]]:

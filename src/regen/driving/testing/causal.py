@@ -1,0 +1,257 @@
+"""The driving domain's reference world: a grounded scenario driven by the reference driver
+(:class:`~regen.driving.testing.reference.ReferenceDriver`) instead of the scripted ego, with
+chosen entities left out (the but-for check of :mod:`regen.verify.causal`).
+
+Every world keeps the map, the other entities and their solved parameters; an entity left out
+takes its FSM states with it (and the predicates of others that name it). The reference driver
+drives the template's route in the lane it starts in (a route that changes lane is straightened:
+whether to change lane is the driver's own decision), through the policy harness
+(:func:`regen.driving.testing.loop.run_policy`).
+
+What the reference must show, per ego template (:attr:`EgoTemplate.reaction_class`), read off
+its recorded speed and lateral offset:
+
+- ``stops``: it drove at 3 m/s or more, then stood (under 0.5 m/s) or all but stood (a third
+  of its top speed or less), or braked hard (3 m/s^2
+  or more on average) down to half its speed or less: a careful driver who anticipates a child
+  running across brakes hard and need not come to a standstill before the child is clear;
+- ``slows down``: its speed fell by at least 2 m/s and a fifth of its cruise speed;
+- ``drives off``: it stood still for at least 1 s (after creeping up to what holds it, as IDM
+  does), then reached 2 m/s;
+- ``changes lane``: it ends 0.6 lane widths or more to the side of the lane it started in.
+
+The reaction's onset is when it started braking (or moving, or moving across). With the cause
+present, the behavior counts when the driver reacted to an entity of the cause (what it braked
+for, waited for, or changed lane around), or else when its onset is no earlier than
+``ANTICIPATION`` = 3 s before the cause first shows (the FSM's cause states, on this run): the
+reference driver yields to an actor up to 3 s before it enters its path, never earlier.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from regen.core.scenario import FSM, AbstractState, Scenario, Stage
+from regen.core.trace import Trace
+from regen.core.verdict import ReferenceRun
+from regen.driving.testing import loop
+from regen.driving.testing.reference import Lanes, ReferenceDriver
+from regen.verify.causal import NotCheckable
+
+ANTICIPATION = 3.0  # [s] the earliest a reaction may start before the cause shows
+MOVING = 3.0  # [m/s] driving, before a stop
+STILL = 0.5  # [m/s] standing
+NEAR_STOP_SHARE = 0.3  # slowing to this share of its top speed or less is all but a stop
+HARD_DECEL = 3.0  # [m/s^2] braking at least this hard on average ...
+HARD_SHARE = 0.5  # ... down to this share of its speed or less is a stop's reaction too
+SLOWED_BY = 2.0  # [m/s] and
+SLOWED_SHARE = 0.2  # of the cruise speed: the least drop that is slowing down
+WAITED = 1.0  # [s] standing at the start before driving off
+DRIVEN_OFF = 2.0  # [m/s]
+LANE_SHARE = 0.6  # of a lane width to the side: a lane change
+BY = "reference driver (IDM following, MOBIL lane changes)"
+
+
+def without(scenario: Scenario, removed: frozenset[str]) -> Scenario:
+    """``scenario`` with the entities ``removed`` left out: their states, the predicates of
+    others that name them, stages left empty, and their solved parameters."""
+    if not removed:
+        return scenario
+    states: list[AbstractState] = []
+    for st in scenario.fsm.states:
+        if st.actor in removed:
+            continue
+        calls = [c for c in st.all_of if not set(c.args) & removed]
+        if calls:
+            states.append(st.model_copy(update={"all_of": calls}))
+    known = {(s.actor, s.name) for s in states}
+    stages = []
+    for stage in scenario.fsm.stages:
+        conds = [c for c in stage.conditions if (c.actor, c.state) in known]
+        if conds:
+            stages.append(Stage(conditions=conds))
+    return scenario.model_copy(update={
+        "entities": [e for e in scenario.entities if e.name not in removed],
+        "fsm": FSM(states=states, stages=stages),
+        "parameters": {k: v for k, v in scenario.parameters.items() if k not in removed}})
+
+
+def _lateral(trace: Trace, frame) -> np.ndarray:
+    ego = trace.actors["ego"]
+    x, y = np.asarray(ego.x), np.asarray(ego.y)
+    return (x - frame.ox) * -frame.uy + (y - frame.oy) * frame.ux
+
+
+def _onset_before(speed: np.ndarray, k: int, dt: float, *, rising: bool = False) -> int:
+    """The step the speed change that reaches step ``k`` began (it kept falling, or rising, since)."""
+    i = k
+    while i > 0:
+        d = (speed[i] - speed[i - 1]) / dt
+        if (d > 0.3) if rising else (d < -0.3):
+            i -= 1
+        else:
+            break
+    return i
+
+
+def _hard_brake(v: np.ndarray, dt: float) -> tuple[int, int] | None:
+    """(first, last step) of a braking of at least ``HARD_DECEL`` on average that ends at or
+    below ``HARD_SHARE`` of the speed it started from, or None."""
+    k = 1
+    while k < len(v):
+        if (v[k - 1] - v[k]) / dt < 0.3:
+            k += 1
+            continue
+        start = k - 1
+        while k < len(v) and (v[k - 1] - v[k]) / dt >= 0.3:
+            k += 1
+        end = k - 1
+        drop = v[start] - v[end]
+        if v[end] <= HARD_SHARE * v[start] and drop / max((end - start) * dt, dt) >= HARD_DECEL:
+            return start, end
+    return None
+
+
+def shows(trace: Trace, reaction: str, *, frame, lane_width: float, cruise: float
+          ) -> tuple[bool, int | None, str]:
+    """(whether the reference ego shows ``reaction``, the step its reaction started, what it did
+    in words)."""
+    v = np.asarray(trace.actors["ego"].speed, dtype=float)
+    t = trace.times
+    if reaction == "stops":
+        fast = np.flatnonzero(v >= MOVING)
+        if fast.size:
+            k0 = int(fast[0])
+            still = np.flatnonzero((v[k0:] < STILL) | (v[k0:] <= NEAR_STOP_SHARE * np.maximum.accumulate(v[k0:])))
+            if still.size:
+                k = k0 + int(still[0])
+                on = _onset_before(v, k, trace.dt)
+                how = "stops" if v[k] < STILL else f"all but stops ({v[k]:.1f} m/s)"
+                return True, on, f"{how} at t = {t[k]:.1f} s (braking from t = {t[on]:.1f} s)"
+            hard = _hard_brake(v[k0:], trace.dt)
+            if hard is not None:
+                on, k = k0 + hard[0], k0 + hard[1]
+                return True, on, (f"brakes hard from {v[on]:.1f} to {v[k]:.1f} m/s (t = {t[on]:.1f} to "
+                                  f"{t[k]:.1f} s)")
+            return False, None, f"never stops nor brakes hard (slowest {float(v[k0:].min()):.1f} m/s after driving)"
+        return False, None, "never drives 3 m/s, so never stops from driving"
+    if reaction == "slows down":
+        top = max(float(v[0]), cruise)
+        need = top - max(SLOWED_BY, SLOWED_SHARE * top)
+        low = np.flatnonzero(v <= need)
+        if low.size:
+            k = int(low[0])
+            on = _onset_before(v, k, trace.dt)
+            return True, on, f"slows to {v[k]:.1f} m/s by t = {t[k]:.1f} s (from t = {t[on]:.1f} s)"
+        return False, None, f"keeps its speed (slowest {float(v.min()):.1f} m/s, cruise {top:.1f} m/s)"
+    if reaction == "drives off":
+        still = v < STILL
+        k, n = 0, len(v)
+        while k < n:  # the first standstill of WAITED or longer, then driving off
+            if not still[k]:
+                k += 1
+                continue
+            j = k
+            while j < n and still[j]:
+                j += 1
+            if t[j - 1] - t[k] >= WAITED and j < n:
+                off = np.flatnonzero(v[j:] >= DRIVEN_OFF)
+                if off.size:
+                    return True, j, f"waits {t[j - 1] - t[k]:.1f} s, then drives off at t = {t[j]:.1f} s"
+            k = j
+        return False, None, "never waits and then drives off (it drives off at once: nothing holds it)" \
+            if not still[0] or (still.size and t[int(np.argmin(still))] - t[0] < WAITED) else \
+            "never drives off after waiting"
+    if reaction == "changes lane":
+        d = _lateral(trace, frame)
+        off = np.abs(d - d[0])
+        across = np.flatnonzero(off >= LANE_SHARE * lane_width)
+        if across.size:
+            k = int(across[0])
+            on = int(np.flatnonzero(off >= 0.3)[0])
+            return True, on, f"changes lane at t = {t[k]:.1f} s (moving across from t = {t[on]:.1f} s)"
+        return False, None, f"keeps its lane (at most {float(off.max()):.1f} m to the side)"
+    raise NotCheckable(f"no reference behavior class {reaction!r}")
+
+
+def cause_time(scenario: Scenario, trace: Trace, cause: frozenset[str]) -> float | None:
+    """[s] when a cause state of an entity of ``cause`` first held on ``trace``."""
+    from regen.verify.monitor import evaluate_state
+
+    first = None
+    for st in scenario.fsm.states:
+        if not st.cause or st.actor not in cause:
+            continue
+        hits = np.flatnonzero(evaluate_state(st, trace, scenario.domain))
+        if hits.size and (first is None or trace.times[int(hits[0])] < first):
+            first = float(trace.times[int(hits[0])])
+    return first
+
+
+@dataclass
+class DrivingReferenceWorld:
+    """The scenario's world with the reference driver (:class:`regen.verify.causal.ReferenceWorld`)."""
+
+    scenario: Scenario
+    cause: frozenset[str]
+    by: str = BY
+    behavior: str = ""
+
+    def __post_init__(self) -> None:
+        from regen.driving.grounding.rules import template_of
+
+        t = template_of(self.scenario)
+        self.template = t
+        self.behavior = t.reaction_class
+        self.frame = t.frame
+        self.lanes, self.route = Lanes(), tuple(t.route)
+        if t.map == "straight" and not t.replay:
+            fr, d0 = t.frame, t.frame.lane_d(t.ego_lane)
+            # its own lane all along: whether to change lane is its decision
+            self.route = tuple(fr.point((x - fr.ox) * fr.ux + (y - fr.oy) * fr.uy, d0) for x, y in t.route)
+            self.lanes = Lanes(tuple(fr.lane_d(k) - d0 for k in range(fr.lanes_same_direction) if k != t.ego_lane))
+        self.cruise = max([t.speed0] + [s for _, s, _ in t.schedule])
+        self.runs = 0
+
+    def run(self, removed: frozenset[str]) -> ReferenceRun:
+        world = without(self.scenario, removed)
+        prep = loop.prepare(world)
+        prep = dataclasses.replace(prep, template=dataclasses.replace(prep.template, route=self.route))
+        driver = ReferenceDriver(lanes=self.lanes)
+        ep = loop.run_policy(prep, driver, step_timeout=None)
+        self.runs += 1
+        if ep.trace is None:
+            return ReferenceRun(removed=sorted(removed), shown=False, summary=f"the run failed: {ep.failure}")
+        shown, onset, words = shows(ep.trace, self.behavior, frame=self.frame,
+                                    lane_width=self.frame.lane_width, cruise=self.cruise)
+        at = cause_time(world, ep.trace, self.cause - removed) if self.cause - removed else None
+        t_on = float(ep.trace.times[onset]) if onset is not None else None
+        why = _reacting_to(driver, t_on) if shown and t_on is not None else None
+        if why:
+            words += f", for {why}"
+        if shown and self.cause - removed and why not in self.cause:  # not its own word: the FSM's timing
+            if at is None:
+                shown, words = False, f"{words}, but the cause never showed"
+            elif t_on is not None and t_on < at - ANTICIPATION:
+                shown, words = False, (f"{words}, {at - t_on:.1f} s before the cause showed "
+                                       f"(t = {at:.1f} s): not a reaction to it")
+        return ReferenceRun(removed=sorted(removed), shown=shown, onset=t_on, cause_at=at, summary=words)
+
+
+def _reacting_to(driver: ReferenceDriver, t: float) -> str | None:
+    """What the driver reacted to in the second after ``t`` (its most frequent reason)."""
+    names = [n for tt, n in driver.reacting_to if t - 0.05 <= tt <= t + 1.0 and n]
+    if not names:
+        names = [n for tt, n in driver.reacting_to if tt >= t and n][:1]
+    return max(set(names), key=names.count) if names else None
+
+
+def reference_world(scenario: Scenario, cause: list[str]) -> DrivingReferenceWorld:
+    """The reference world of a driving scenario (its ego template says what to show)."""
+    return DrivingReferenceWorld(scenario, frozenset(cause))
+
+
+__all__ = ["ANTICIPATION", "BY", "DrivingReferenceWorld", "cause_time", "reference_world", "shows", "without"]
