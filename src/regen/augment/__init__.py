@@ -116,10 +116,11 @@ def run_augment(scenario_dir: str | Path, out: str | Path, llm: LLM, *, judge: L
             tried = Tried(proposal=what, status="not_applied", holds=False, reason=str(exc))
         else:
             holds, reason = w.explained, w.reason
-            if op == "add" and judge is not None and holds:  # a cause of the behavior, not of the old cause
+            if op == "add" and judge is not None:  # recorded beside the simulation's answer, never over it
                 judged = judge_root(judge, scenario.domain, [what, scenario.behavior.text])
-                if judged["plausible"] is False:
-                    holds, reason = False, f"{reason}; but the judge found it no cause of the behavior: {judged['reason']}"
+                if judged["plausible"] is False and holds:
+                    reason = (f"{reason}; the model judge finds it no cause of the behavior ({judged['reason']}); "
+                              "the simulation decides")
             tried = Tried(proposal=what, folder=str(dest), status=w.status, holds=holds, reason=reason)
         (record.additions if op == "add" else record.irrelevant).append(tried)
     dest = Path(out).absolute() / f"{src.path.name}-augment"

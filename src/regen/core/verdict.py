@@ -46,6 +46,8 @@ class ReferenceRun(Model):
 
     removed: list[str] = Field(default_factory=list)  # entities left out of this world
     shown: bool  # it showed the behavior class, after the cause where the world has one
+    happened: bool | None = None  # it showed the behavior class at all (for whatever reason)
+    reacted_to: str | None = None  # the entity it reacted to, by its own account
     onset: float | None = None  # [s] when its reaction started
     cause_at: float | None = None  # [s] when the cause first showed (None: never, or no cause)
     summary: str = ""  # what it did, in words ("stopped at t = 6.1 s, 9.8 m before child1")

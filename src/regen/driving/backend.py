@@ -227,11 +227,18 @@ class DrivingBackend(DomainBackend):
         recorded in ``scenario.fallbacks``), else the rule-based grounder."""
         if path.behavior.domain != self.name:
             raise GroundingError(f"the driving backend cannot ground a {path.behavior.domain} behavior")
+        from regen.driving.grounding.confounders import quiet_context
+
+        path, notes = quiet_context(path, self.database(), robot=(self.report_hints.robot, *self.wording.robot_names))
         if llm is not None:
             from regen.driving.grounding.model import ground_with_model
 
-            return ground_with_model(path, llm, seed=seed)
-        return ground_rule_based(path, seed=seed)
+            scenario = ground_with_model(path, llm, seed=seed)
+        else:
+            scenario = ground_rule_based(path, seed=seed)
+        if notes:
+            scenario = scenario.model_copy(update={"fallbacks": [*notes, *scenario.fallbacks]})
+        return scenario
 
     import_suffixes = (".xosc",)
 

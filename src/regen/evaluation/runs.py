@@ -15,6 +15,7 @@ from pydantic import BaseModel, Field, ValidationError
 from regen.core.scenario import Scenario
 from regen.core.verdict import Verdict
 from regen.errors import ConfigError
+from regen.report.load import causal_text
 from regen.runfolder import RunFolder, read_json
 
 log = logging.getLogger(__name__)
@@ -33,6 +34,10 @@ class ScenarioRecord(BaseModel):
     status: str = "missing"  # the verdict status, or 'missing'
     reason: str = ""
     first_unmet_stage: int | None = None
+    #: whether the cause causes the behavior, beside the status: 'caused', 'not_sufficient',
+    #: 'confounded: traffic_light1', ...; None: the verdict has no causal part (an older one)
+    causal: str | None = None
+    causal_reason: str = ""
     notes: list[str] = Field(default_factory=list)  # what could not be read
 
 
@@ -108,12 +113,40 @@ def _fill_from_verdict(rec: ScenarioRecord, data: Any) -> None:
         v = Verdict.model_validate(data)
         rec.feasible, rec.status, rec.reason = v.feasible, v.status, v.reason
         rec.first_unmet_stage = v.first_unmet_stage
+        rec.causal = causal_text(v.causal)
+        rec.causal_reason = v.causal.reason if v.causal is not None else ""
     except ValidationError:
         rec.notes.append("verdict.json does not validate; read loosely")
         if isinstance(data.get("feasible"), bool):
             rec.feasible = data["feasible"]
         rec.status = str(data.get("status") or ("verified" if rec.feasible else "unknown"))
         rec.reason = str(data.get("reason") or "")
+        rec.causal, rec.causal_reason = _loose_causal(data.get("causal"))
+
+
+def _loose_causal(data: Any) -> tuple[str | None, str]:
+    """(causal text, reason) of a causal part read field by field (a verdict that does not validate)."""
+    if not isinstance(data, dict) or not isinstance(data.get("status"), str) or not data["status"]:
+        return None, ""
+    names = [str(c) for c in data.get("confounders") or [] if isinstance(c, str | int | float)] \
+        if isinstance(data.get("confounders"), list) else []
+    reason = data.get("reason") if isinstance(data.get("reason"), str) else ""
+    return data["status"] + (f": {', '.join(names)}" if names else ""), reason
+
+
+def causal_counts(path: str | Path) -> dict[str, int]:
+    """Causal status -> number of a run folder's scenarios whose verdict.json has a causal part
+    (a verdict without one, or that cannot be read, is not counted)."""
+    folder = RunFolder(Path(path))
+    counts: dict[str, int] = {}
+    for name in folder.scenario_names():
+        sf = folder.scenario(name)
+        data = read_json(sf / sf.VERDICT).value
+        causal = data.get("causal") if isinstance(data, dict) else None
+        status = causal.get("status") if isinstance(causal, dict) else None
+        if isinstance(status, str) and status:
+            counts[status] = counts.get(status, 0) + 1
+    return counts
 
 
 def load_run(path: str | Path) -> RunRecord:

@@ -17,7 +17,7 @@ from regen.contract import ANIMATION, KEYFRAMES, ReportHints
 from regen.core.behavior import Behavior
 from regen.core.graph import CausePath, ScenarioGraph
 from regen.core.scenario import Scenario
-from regen.core.verdict import Verdict
+from regen.core.verdict import Causal, Verdict
 from regen.report.links import href
 from regen.runfolder import Loaded, RunFolder, ScenarioFolder, read_json, read_model, read_text
 
@@ -95,6 +95,37 @@ class ScenarioView:
                        + (self.verdict.conflicts if self.verdict else []))
 
 
+    @property
+    def causal(self) -> Causal | None:
+        """Whether the cause causes the behavior (None: not checked, e.g. an older verdict.json)."""
+        return self.verdict.causal if self.verdict is not None else None
+
+    @property
+    def causal_label(self) -> str:
+        """The causal part in words for the page ('caused', 'confounded by traffic_light1')."""
+        return causal_label(self.causal)
+
+
+def causal_text(causal: Causal | None) -> str | None:
+    """The causal part of a verdict in a few words, beside its status: 'caused',
+    'not_sufficient', 'confounded: traffic_light1' (its confounders appended). None when the
+    verdict has no causal part (written before the check existed)."""
+    if causal is None:
+        return None
+    return f"{causal.status}: {', '.join(causal.confounders)}" if causal.confounders else causal.status
+
+
+def causal_label(causal: Causal | None) -> str:
+    """The causal part for people to read: 'caused', 'confounded by traffic_light1', 'not
+    sufficient', 'not checked' (also for a verdict without one)."""
+    if causal is None:
+        return "not checked"
+    label = causal.status.replace("_", " ")
+    if causal.confounders:
+        label += (" by " if causal.status == "confounded" else ": ") + ", ".join(causal.confounders)
+    return label
+
+
 def _unique(items: list[str]) -> list[str]:
     return list(dict.fromkeys(items))
 
@@ -107,6 +138,7 @@ class Summary:
     statuses: dict[str, int]  # verdict status (or 'unfinished'/'unreadable') -> count
     relaxed: int = 0  # feasible only after relaxing the FSM
     fsm_sources: dict[str, int] = field(default_factory=dict)  # feasible scenarios by who wrote their FSM
+    causal: dict[str, int] = field(default_factory=dict)  # causal status -> count (verdicts that have one)
 
     @property
     def success_rate(self) -> float | None:
@@ -143,7 +175,9 @@ class RunView:
                        relaxed=sum(1 for s in finished if s.verdict and s.verdict.relaxations
                                    and s.verdict.feasible),
                        fsm_sources=dict(Counter(s.scenario.fsm_source for s in finished
-                                                if s.verdict and s.verdict.feasible and s.scenario)))
+                                                if s.verdict and s.verdict.feasible and s.scenario)),
+                       causal=dict(sorted(Counter(s.causal.status for s in finished
+                                                  if s.causal is not None).items())))
 
     def run_field(self, key: str) -> Any:
         return self.run.get(key) if isinstance(self.run, dict) else None

@@ -6,8 +6,9 @@ domain that has a *reference robot* (driving: a careful driver, IDM and MOBIL, t
 to what it perceives) gives a :class:`ReferenceWorld`: the scenario's world, simulated with the
 reference robot, with some entities left out. On it :func:`but_for` decides:
 
-1. **sufficient**: with everything present, the reference shows the behavior class, after the
-   cause first shows;
+1. **sufficient**: with everything present, the reference shows the behavior class as a
+   reaction to the cause (by its own account of what it reacted to, or else after the cause
+   first shows); where it shows it for another entity, the confounder check (3) still runs;
 2. **necessary**: with the cause's entities removed (the rest of the world and the solved
    parameters kept), it does not;
 3. **confounders**: for each other entity, whether it alone (the cause removed, it kept)
@@ -100,7 +101,7 @@ def but_for(world: ReferenceWorld, cause: Sequence[str], others: Sequence[str], 
     what = world.behavior
     full = world.run(frozenset())
     full.removed = []
-    if not full.shown:
+    if not full.shown and not (full.happened and others):
         if not cause:
             reason = f"with no entity of the cause in the scene, the {world.by} does not {_base(what)}: {full.summary}"
         else:
@@ -121,8 +122,12 @@ def but_for(world: ReferenceWorld, cause: Sequence[str], others: Sequence[str], 
     if confounders:
         return Causal(status="confounded", with_cause=full, without_cause=without, others=checks,
                       confounders=confounders,
-                      reason=f"{_names(confounders)} alone makes the {world.by} {what}, without "
+                      reason=f"{_names(confounders)} alone makes the {world.by} {_base(what)}, without "
                              f"{_names(cause)}: {without.summary}", **base)
+    if not full.shown:  # it reacted, but to something else, and nothing else alone explains it
+        return Causal(status="not_sufficient", with_cause=full, without_cause=without, others=checks,
+                      reason=f"with {_names(cause)}, the {world.by} does not {_base(what)} for it: "
+                             f"{full.summary}", **base)
     if without.shown:
         rest = [c.entity for c in checks]
         else_ = f"the other entities together ({_names(rest)})" if rest else "the road alone"

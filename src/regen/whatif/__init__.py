@@ -235,11 +235,14 @@ class WhatIf(Model):
     call_id: str | None = None  # the model call that wrote the edits
     original_status: str
     status: str  # the counterfactual's verdict
-    #: the robot's behavior is still explained: the counterfactual verified and (when judged) its
-    #: root cause is still a plausible cause of what follows it
+    #: the robot's behavior is still explained: the counterfactual's FSM played out and its cause
+    #: caused the behavior (the but-for check with the reference robot, :mod:`regen.verify.causal`;
+    #: where the domain cannot check, the FSM alone, and ``causal`` says 'not_checked')
     explained: bool
+    causal: str | None = None  # the counterfactual's causal status
+    original_causal: str | None = None  # the original's
     #: the event judge on the counterfactual's root cause ({'by', 'plausible', 'reason'}); by
-    #: 'none' when no model judged it (then only the simulation decides ``explained``)
+    #: 'none' when no model judged it. Recorded beside the simulation's answer, never over it
     judged: dict[str, Any] = Field(default_factory=lambda: {"by": "none", "plausible": None, "reason": ""})
     original_explained: bool
     reason: str
@@ -267,7 +270,7 @@ def judge_root(llm: LLM, domain: str, events: list[str]) -> dict[str, Any]:
     ok = root in judged.accepted and ruled is None
     reason = ruled or judged.accepted.get(root) or judged.rejected.get(root, "")
     return {"by": f"model ({llm.provider.id})", "plausible": ok, "reason": reason,
-            "call_id": judged.calls.get(root)}
+            "call_id": judged.calls.get(root), "root": root}
 
 
 def prepare(scenario_dir: str | Path, edits: list[Edit]) -> tuple[Any, Scenario, Verdict | None, CausePath]:
@@ -297,8 +300,8 @@ def run_whatif(scenario_dir: str | Path, edits: list[Edit], out: str | Path, *, 
                edits_by: Literal["user", "model"] = "user", pictures: bool = True) -> tuple[Path, WhatIf]:
     """Apply ``edits`` to the scenario in ``scenario_dir``, then ground (rules, or ``llm``),
     simulate and verify the counterfactual into ``out``; (its folder, the record). ``judge``: a
-    model asked whether the counterfactual's root cause still causes what follows it (the
-    scripted robot reacts whatever the cause: without a judge only the simulation decides)."""
+    model asked whether the counterfactual's root cause still causes what follows it, recorded
+    beside the simulation's answer (``explained``: the but-for check), never over it."""
     from regen.pipeline.stages import run_path
     from regen.runfolder import ScenarioFolder
 
@@ -309,17 +312,10 @@ def run_whatif(scenario_dir: str | Path, edits: list[Edit], out: str | Path, *, 
     after = ScenarioFolder(dest).scenario()
     shown = _shown_states(edits, src.path, dest)
     judged = ({"by": "none", "plausible": None, "reason": "no model judged whether the edited cause still "
-               "causes the behavior; only the simulation decided"} if judge is None
+               "causes the behavior; the simulation decided"} if judge is None
               else judge_root(judge, scenario.domain, new_path.events))
-    explained = outcome.verdict.feasible and judged["plausible"] is not False
-    record = WhatIf(original=str(src.path), question=question, edits=edits, edits_by=edits_by,
-                    original_status=verdict.status if verdict is not None else "unfinished",
-                    original_explained=bool(verdict is not None and verdict.feasible),
-                    status=outcome.verdict.status, explained=explained, judged=judged,
-                    reason=outcome.verdict.reason if judged["plausible"] is not False else
-                    f"{outcome.verdict.reason}; but the judge found '{new_path.events[0]}' no cause of "
-                    f"'{new_path.events[1]}': {judged['reason']}", stages_changed=changed_stages(scenario, after),
-                    shown_states=shown)
+    record = _record(src.path, scenario, verdict, outcome.verdict, after, edits, edits_by, question, judged,
+                     shown)
     from regen.core.io import atomic_write_text, write_json
 
     write_json(dest / WHATIF_JSON, record)
@@ -330,6 +326,31 @@ def run_whatif(scenario_dir: str | Path, edits: list[Edit], out: str | Path, *, 
         pass
     atomic_write_text(dest / WHATIF_HTML, page(record, src.path, dest, scenario, after))
     return dest, record
+
+
+def _record(original: Path, scenario: Scenario, verdict: Verdict | None, got: Verdict, after: Scenario | None,
+            edits: list[Edit], edits_by: Literal["user", "model"], question: str | None,
+            judged: dict[str, Any], shown: list[dict[str, str]]) -> WhatIf:
+    """The what-if record: ``explained`` by simulation alone (the counterfactual's FSM played out
+    and, checked with the reference robot, its cause caused the behavior); the model judge, when
+    asked, is recorded beside it and never decides."""
+    from regen.verify.causal import explains
+
+    explained = explains(got.causal, got.feasible)
+    reason = got.reason
+    if got.feasible and got.causal is not None:
+        reason = f"{got.reason}; cause: {got.causal.status}: {got.causal.reason}"
+    if judged.get("plausible") is not None and bool(judged["plausible"]) != explained:
+        reason += (f" (the model judge disagrees: it found '{judged.get('root', '')}' "
+                   f"{'a' if judged['plausible'] else 'no'} cause: {judged['reason']}; the simulation decides)")
+    return WhatIf(original=str(original), question=question, edits=edits, edits_by=edits_by,
+                  original_status=verdict.status if verdict is not None else "unfinished",
+                  original_explained=verdict is not None and explains(verdict.causal, verdict.feasible),
+                  status=got.status, explained=explained, judged=judged, reason=reason,
+                  causal=got.causal.status if got.causal is not None else None,
+                  original_causal=verdict.causal.status if verdict is not None and verdict.causal is not None
+                  else None,
+                  stages_changed=changed_stages(scenario, after), shown_states=shown)
 
 
 def _states(folder: Path, entity: str, prop: str) -> str:

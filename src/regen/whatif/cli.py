@@ -88,7 +88,11 @@ def whatif_command(
     for e in record.edits:
         console.print(f"  {shown(e.describe())}")
     state = "[green]still explained[/]" if record.explained else "[red]no longer explained[/]"
-    console.print(f"original: {record.original_status}; counterfactual: {record.status}: the behavior is {state}")
+    def status(st: str, causal: str | None) -> str:
+        return f"{st}, {causal}" if causal else st
+
+    console.print(f"original: {status(record.original_status, record.original_causal)}; counterfactual: "
+                  f"{status(record.status, record.causal)}: the behavior is {state}")
     console.print(f"  {shown(record.reason)}")
     if record.judged.get("by") != "none":
         plausible = "a plausible cause" if record.judged.get("plausible") else "no cause"

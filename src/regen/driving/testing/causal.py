@@ -11,10 +11,9 @@ whether to change lane is the driver's own decision), through the policy harness
 What the reference must show, per ego template (:attr:`EgoTemplate.reaction_class`), read off
 its recorded speed and lateral offset:
 
-- ``stops``: it drove at 3 m/s or more, then stood (under 0.5 m/s) or all but stood (a third
-  of its top speed or less), or braked hard (3 m/s^2
-  or more on average) down to half its speed or less: a careful driver who anticipates a child
-  running across brakes hard and need not come to a standstill before the child is clear;
+- ``stops``: it drove at 3 m/s or more, then stood (under 0.5 m/s) or braked to half its top
+  speed or less: a careful driver who anticipates a child running across brakes early and need
+  not come to a standstill before the child is clear;
 - ``slows down``: its speed fell by at least 2 m/s and a fifth of its cruise speed;
 - ``drives off``: it stood still for at least 1 s (after creeping up to what holds it, as IDM
   does), then reached 2 m/s;
@@ -44,9 +43,7 @@ from regen.verify.causal import NotCheckable
 ANTICIPATION = 3.0  # [s] the earliest a reaction may start before the cause shows
 MOVING = 3.0  # [m/s] driving, before a stop
 STILL = 0.5  # [m/s] standing
-NEAR_STOP_SHARE = 0.3  # slowing to this share of its top speed or less is all but a stop
-HARD_DECEL = 3.0  # [m/s^2] braking at least this hard on average ...
-HARD_SHARE = 0.5  # ... down to this share of its speed or less is a stop's reaction too
+NEAR_STOP_SHARE = 0.5  # braking to this share of its top speed or less is a stop's reaction
 SLOWED_BY = 2.0  # [m/s] and
 SLOWED_SHARE = 0.2  # of the cruise speed: the least drop that is slowing down
 WAITED = 1.0  # [s] standing at the start before driving off
@@ -97,24 +94,6 @@ def _onset_before(speed: np.ndarray, k: int, dt: float, *, rising: bool = False)
     return i
 
 
-def _hard_brake(v: np.ndarray, dt: float) -> tuple[int, int] | None:
-    """(first, last step) of a braking of at least ``HARD_DECEL`` on average that ends at or
-    below ``HARD_SHARE`` of the speed it started from, or None."""
-    k = 1
-    while k < len(v):
-        if (v[k - 1] - v[k]) / dt < 0.3:
-            k += 1
-            continue
-        start = k - 1
-        while k < len(v) and (v[k - 1] - v[k]) / dt >= 0.3:
-            k += 1
-        end = k - 1
-        drop = v[start] - v[end]
-        if v[end] <= HARD_SHARE * v[start] and drop / max((end - start) * dt, dt) >= HARD_DECEL:
-            return start, end
-    return None
-
-
 def shows(trace: Trace, reaction: str, *, frame, lane_width: float, cruise: float
           ) -> tuple[bool, int | None, str]:
     """(whether the reference ego shows ``reaction``, the step its reaction started, what it did
@@ -125,18 +104,19 @@ def shows(trace: Trace, reaction: str, *, frame, lane_width: float, cruise: floa
         fast = np.flatnonzero(v >= MOVING)
         if fast.size:
             k0 = int(fast[0])
-            still = np.flatnonzero((v[k0:] < STILL) | (v[k0:] <= NEAR_STOP_SHARE * np.maximum.accumulate(v[k0:])))
-            if still.size:
-                k = k0 + int(still[0])
+            top = np.maximum.accumulate(v[k0:])
+            low = np.flatnonzero((v[k0:] < STILL) | (v[k0:] <= NEAR_STOP_SHARE * top))
+            if low.size:
+                k = k0 + int(low[0])
                 on = _onset_before(v, k, trace.dt)
-                how = "stops" if v[k] < STILL else f"all but stops ({v[k]:.1f} m/s)"
-                return True, on, f"{how} at t = {t[k]:.1f} s (braking from t = {t[on]:.1f} s)"
-            hard = _hard_brake(v[k0:], trace.dt)
-            if hard is not None:
-                on, k = k0 + hard[0], k0 + hard[1]
-                return True, on, (f"brakes hard from {v[on]:.1f} to {v[k]:.1f} m/s (t = {t[on]:.1f} to "
-                                  f"{t[k]:.1f} s)")
-            return False, None, f"never stops nor brakes hard (slowest {float(v[k0:].min()):.1f} m/s after driving)"
+                still = np.flatnonzero(v[k:] < STILL)
+                if still.size:
+                    how = f"stops at t = {t[k + int(still[0])]:.1f} s"
+                else:
+                    how = f"brakes from {float(top[k - k0]):.1f} to {float(v[k:].min()):.1f} m/s by t = {t[k]:.1f} s"
+                return True, on, f"{how} (braking from t = {t[on]:.1f} s)"
+            return False, None, (f"never stops nor brakes to half its speed (slowest {float(v[k0:].min()):.1f} "
+                                 f"m/s after driving {float(top.max()):.1f} m/s)")
         return False, None, "never drives 3 m/s, so never stops from driving"
     if reaction == "slows down":
         top = max(float(v[0]), cruise)
@@ -224,11 +204,13 @@ class DrivingReferenceWorld:
         ep = loop.run_policy(prep, driver, step_timeout=None)
         self.runs += 1
         if ep.trace is None:
-            return ReferenceRun(removed=sorted(removed), shown=False, summary=f"the run failed: {ep.failure}")
+            return ReferenceRun(removed=sorted(removed), shown=False, happened=False,
+                                summary=f"the run failed: {ep.failure}")
         shown, onset, words = shows(ep.trace, self.behavior, frame=self.frame,
                                     lane_width=self.frame.lane_width, cruise=self.cruise)
         at = cause_time(world, ep.trace, self.cause - removed) if self.cause - removed else None
         t_on = float(ep.trace.times[onset]) if onset is not None else None
+        happened = shown
         why = _reacting_to(driver, t_on) if shown and t_on is not None else None
         if why:
             words += f", for {why}"
@@ -238,7 +220,8 @@ class DrivingReferenceWorld:
             elif t_on is not None and t_on < at - ANTICIPATION:
                 shown, words = False, (f"{words}, {at - t_on:.1f} s before the cause showed "
                                        f"(t = {at:.1f} s): not a reaction to it")
-        return ReferenceRun(removed=sorted(removed), shown=shown, onset=t_on, cause_at=at, summary=words)
+        return ReferenceRun(removed=sorted(removed), shown=shown, happened=happened, reacted_to=why,
+                            onset=t_on, cause_at=at, summary=words)
 
 
 def _reacting_to(driver: ReferenceDriver, t: float) -> str | None:

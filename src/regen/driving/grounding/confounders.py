@@ -1,0 +1,57 @@
+"""No confounder added by grounding: a context entity keeps a state that does not explain the
+ego's reaction on its own.
+
+Expansion gives each cause event its entities, and some are context the cause's words do not
+name: a traffic light beside "a pedestrian steps into the road". If such a light is red, a
+careful driver stops for the light, whatever the pedestrian does, and the scenario no longer
+shows that the pedestrian caused the stop (the but-for check, :mod:`regen.verify.causal`, calls
+it ``confounded``). So before grounding, a context entity whose state alone makes drivers react
+(:data:`CONTROLS`: a red, yellow or turning-red light; a siren on) gets the state that does not
+(a green light, a siren off), unless the cause's words name that entity or that state. Each
+such change is returned in words and recorded in the scenario's ``fallbacks`` (the verdict and
+the report say it); nothing is changed silently.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from regen.assets.database import AssetDatabase
+from regen.core.graph import CausePath
+
+#: property -> (states that make a driver react on their own, the state that does not)
+CONTROLS: dict[str, tuple[frozenset[str], str]] = {
+    "light_state": (frozenset({"red", "yellow", "turns_red"}), "green"),
+    "siren": (frozenset({"on"}), "off"),
+}
+
+
+def quiet_context(path: CausePath, db: AssetDatabase, *, robot: Sequence[str] = ()) -> tuple[CausePath, list[str]]:
+    """(``path`` with its context entities' reacting states made neutral, what was changed in words)."""
+    causes = path.events[:-1] or path.events
+    named: set[str] = set()
+    for event in causes:
+        hits = db.named_in(event, exclude=robot)
+        hits += db.implied_by_words(event, exclude=robot, skip=frozenset(m.asset for m in hits))
+        named |= {m.key for m in hits} | {m.asset for m in hits}
+    entities, notes = [], []
+    for pe in path.entities:
+        if pe.asset in named or any(db.answers_to(pe.asset, n) for n in named):
+            entities.append(pe)
+            continue
+        props = dict(pe.properties)
+        for prop, (reacting, neutral) in CONTROLS.items():
+            values = props.get(prop)
+            if not values or not set(values) <= reacting or neutral not in (db.property_candidates(pe.asset, prop) or []):
+                continue
+            if any(db.named_state(pe.asset, prop, event) for event in causes):
+                continue  # the words name the state itself ('at a red light')
+            props[prop] = [neutral]
+            notes.append(f"{pe.asset} ({prop} = {'/'.join(values)} -> {neutral}): the cause's words name no "
+                         f"{pe.asset.replace('_', ' ')}, and a {pe.asset.replace('_', ' ')} with {prop} = "
+                         f"{values[0]} would explain the ego's reaction on its own (a confounder)")
+        entities.append(pe.model_copy(update={"properties": props}))
+    return path.model_copy(update={"entities": entities}), notes
+
+
+__all__ = ["CONTROLS", "quiet_context"]
