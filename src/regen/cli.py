@@ -363,18 +363,19 @@ def runs_list(root: str = typer.Argument(".", help="A run folder or a folder of 
     from pathlib import Path
 
     from regen.errors import RunError
+    from regen.evaluation.runs import causal_counts
     from regen.runfolder import RunFolder, list_runs, read_json
 
     base = Path(root)
     if not base.is_dir():
         raise RunError(f"{root} is not a folder: give a run folder or a folder of runs")
     table = Table(title=shown(f"runs under {root}"))
-    for col in ("folder", "behavior", "domain", "status", "feasible", "started"):
+    for col in ("folder", "behavior", "domain", "status", "feasible", "caused", "started"):
         table.add_column(col, overflow="fold")  # wrapped, never cut: a cut path names no run
     for path, m, problem in list_runs(base):
         name = shown(path if path == base else path.relative_to(base))  # the title names the root
         if m is None:
-            table.add_row(name, f"[yellow]run.json {shown(problem)}[/]", "", "?", "?", "")
+            table.add_row(name, f"[yellow]run.json {shown(problem)}[/]", "", "?", "?", "", "")
             continue
         got = read_json(path / RunFolder.SUMMARY)
         if got.ok and isinstance(got.value, dict):
@@ -383,8 +384,10 @@ def runs_list(root: str = typer.Argument(".", help="A run folder or a folder of 
             feasible = "?"
         else:
             feasible = "[yellow]summary.json unreadable[/]"
+        causal = causal_counts(path)  # scenarios whose cause causes the behavior / those checked
+        caused = f"{causal.get('caused', 0)}/{sum(causal.values())}" if causal else "—"
         table.add_row(name, shown(m.behavior.text), shown(m.behavior.domain),
-                      shown(m.status), feasible, shown(m.started))
+                      shown(m.status), feasible, caused, shown(m.started))
     console.print(table)
 
 
@@ -396,6 +399,7 @@ def runs_show(run: str = typer.Argument(..., help="A run folder")) -> None:
 
     from regen.core.verdict import Verdict
     from regen.errors import RunError
+    from regen.report.load import causal_text
     from regen.runfolder import RunFolder, read_model
 
     folder = RunFolder(Path(run))
@@ -406,20 +410,35 @@ def runs_show(run: str = typer.Argument(..., help="A run folder")) -> None:
     console.print(f"[bold]{shown(m.behavior.text)}[/] ({shown(m.behavior.domain)}), status "
                   f"{shown(m.status)}, started {shown(m.started)}")
     table = Table()
-    for col in ("scenario", "verdict", "reason"):
+    for col in ("scenario", "verdict", "causal", "reason"):
         table.add_column(col)
+    caused = checked = 0
     for name in folder.scenario_names():
         got = read_model(folder.scenario(name) / "verdict.json", Verdict)
         if got.ok:
             v = got.value
             status = shown(v.status)
+            reason = shown(v.reason)
+            causal = causal_text(v.causal)  # beside the status, never instead of it
+            if v.causal is None:
+                mark = "[dim]not checked[/]"
+            else:
+                checked += 1
+                caused += v.causal.status == "caused"
+                colour = {"caused": "green", "not_checked": "dim"}.get(v.causal.status, "yellow")
+                mark = f"[{colour}]{shown(causal)}[/]"
+                if v.causal.status != "caused" and v.causal.reason:
+                    reason += f"\ncause: {shown(v.causal.reason)}"
             table.add_row(shown(name), f"[green]{status}[/]" if v.feasible else f"[red]{status}[/]",
-                          shown(v.reason))
+                          mark, reason)
         elif got.problem == "missing":
-            table.add_row(shown(name), "[yellow]not finished[/]", "")
+            table.add_row(shown(name), "[yellow]not finished[/]", "", "")
         else:
-            table.add_row(shown(name), "[yellow]verdict unreadable[/]", shown(got.problem))
+            table.add_row(shown(name), "[yellow]verdict unreadable[/]", "", shown(got.problem))
     console.print(table)
+    if checked:
+        console.print(f"caused: {caused}/{checked} scenarios checked with a reference robot with and "
+                      "without their cause")
 
 
 def _mount_whatif() -> None:

@@ -106,6 +106,9 @@ class Verdict(Model):
     #: whether the cause causes the behavior (a reference robot with and without it); beside
     #: the status, never instead of it
     causal: Causal | None = None
+    #: sentences of the model's narrative that claim what the simulation does not show, each
+    #: marked as the model's claim with what the simulation shows (:mod:`regen.verify.claims`)
+    claims: list[str] = Field(default_factory=list)
 
     @model_validator(mode="after")
     def _feasible_matches_status(self) -> Verdict:

@@ -53,6 +53,10 @@ class CaseResult(Model):
     parameters: dict[str, dict[str, float]] = Field(default_factory=dict)  # the variant's, per actor
     adversarial: bool = False  # a candidate of the adversarial search (regen.harness.adversarial)
     template: TemplateCheck | None = None  # the scripted robot in the same variant
+    #: whether the scenario's cause causes the behavior, from its folder's verdict.json when the
+    #: test ran: 'caused', 'not_sufficient', 'confounded: traffic_light1' (confounders appended);
+    #: None: that verdict has no causal part. A failure on a confounded scenario is explained by it.
+    causal: str | None = None
 
     @property
     def passed(self) -> bool:
@@ -93,7 +97,8 @@ def case_line(c: CaseResult) -> str:
     tag = "ERROR" if c.cause == "error" else {"passed": "PASS", "failed": "FAIL", "skipped": "SKIP"}[c.status]
     ttc = f"  (min TTC {c.min_ttc:.2f} s)" if c.min_ttc is not None else ""
     name = f"{c.scenario}[variant {c.variant}]" if c.variant or c.adversarial else c.scenario
-    return f"{tag}  {name}  {c.message}{ttc if c.status != 'skipped' else ''}"
+    causal = f"  [causal: {c.causal}]" if c.causal else ""
+    return f"{tag}  {name}  {c.message}{ttc if c.status != 'skipped' else ''}{causal}"
 
 
 __all__ = ["CaseResult", "RobotStage", "SuiteReport", "TemplateCheck", "case_line"]

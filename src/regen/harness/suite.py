@@ -176,6 +176,7 @@ def run_tests(run_dir: str | Path, policy_spec: str, *, variants: int = 1, seed:
     from regen.harness.process import PolicyProcess
     from regen.harness.results import POLICY_LOG, ResultsFolder, policy_digest, scenario_digest
     from regen.interrupts import Interrupts
+    from regen.report.load import causal_text
     from regen.runfolder import read_model
 
     if oracle not in ORACLES:
@@ -252,11 +253,13 @@ def run_tests(run_dir: str | Path, policy_spec: str, *, variants: int = 1, seed:
                                            read_model(folder / folder.TRACE, Trace).value, variants=variants,
                                            seed=seed, adversarial=adversarial, run_one=run_one, reuse=reuse)
                 pending = iter(cases)
+                causal = causal_text(verdict.causal) if verdict is not None else None
                 while True:
                     with interrupts.deferred():  # a first Ctrl-C lets this case finish and keeps it
                         case = next(pending, None)
                     if case is None:
                         break
+                    case.causal = causal  # the scenario's causal check, beside the test's result
                     report.cases.append(case)
                     if results is not None:
                         results.keep(case, digest)

@@ -30,7 +30,7 @@ from regen.core.verdict import Causal, Verdict
 from regen.errors import LLMError, MalformedAnswerError, RegenError, UngroundableError
 from regen.llm.client import LLM
 from regen.runfolder import ScenarioFolder, read_json, read_model, read_text
-from regen.verify import causal, fidelity
+from regen.verify import causal, claims, fidelity
 from regen.verify.monitor import validate_fsm
 
 log = logging.getLogger(__name__)
@@ -160,7 +160,8 @@ def simulate_stage(domain: str, scenario_dir: str, pictures: bool = True) -> dic
         verdict = fidelity.with_fidelity(verdict, fidelity.combine(rules, scenario.fidelity))
         timings["verify"] = time.perf_counter() - t0
         t0 = time.perf_counter()
-        verdict = verdict.model_copy(update={"causal": causal_stage(backend, judged, verdict, folder)})
+        verdict = verdict.model_copy(update={"causal": causal_stage(backend, judged, verdict, folder),
+                                             "claims": narrative_claims(backend, judged, sim.trace)})
         timings["causal"] = time.perf_counter() - t0
     except KeyboardInterrupt:
         raise
@@ -188,6 +189,19 @@ def simulate_stage(domain: str, scenario_dir: str, pictures: bool = True) -> dic
 
 #: statuses whose FSM played out: the but-for check has something to check
 _PLAYED_OUT = ("verified", "verified_after_relaxation", "unfaithful")
+
+
+def narrative_claims(backend: DomainBackend, scenario: Scenario, trace: Trace) -> list[str]:
+    """The narrative's sentences that claim a collision or a stop the trace does not show."""
+    robot = scenario.robot()
+    track = trace.actors.get(robot.name) if robot is not None else None
+    stood = bool(min(track.speed) < 0.5) if track is not None and track.speed else None
+    harness = backend.policy_harness()
+    collisions = None
+    if harness is not None and robot is not None:
+        collisions = [i.message for i in harness.incidents(scenario, trace) if i.collision]
+    return claims.check_narrative(scenario.narrative, collisions=collisions, robot_stood=stood,
+                                  robot=backend.report_hints.robot)
 
 
 def causal_stage(backend: DomainBackend, scenario: Scenario, verdict: Verdict, folder: ScenarioFolder

@@ -19,6 +19,12 @@ from regen.runfolder import RunFolder, ScenarioFolder, behavior_test_name, read_
 __all__ = ["BehaviorTests", "CaseRow", "PolicyTests", "RateRow", "load_tests"]
 
 STATUSES = ("passed", "failed", "skipped")
+#: what a scenario's causal check means for a test in it (a failure there may not be the policy's)
+CAUSAL_NOTES = {
+    "confounded": "another entity alone explains the behavior, so the scenario may test that instead of its cause",
+    "not_sufficient": "a reference robot ignores the cause, so the scenario may not call for the behavior",
+    "not_necessary": "a reference robot shows the behavior without the cause too",
+}
 JUNIT = "junit.xml"
 
 
@@ -43,10 +49,33 @@ class CaseRow:
     #: why this result may no longer hold: its scenario is gone, or changed since the test ran
     #: (a later ``regen generate --fresh`` or rerun); None: the scenario is the one tested
     stale: str | None = None
+    #: the scenario's causal check when the test ran ('caused', 'confounded: traffic_light1');
+    #: None: not recorded (no causal part, or a tests.json written before the field existed)
+    causal: str | None = None
 
     @property
     def ran(self) -> bool:
         return self.status in ("passed", "failed")
+
+    @property
+    def causal_status(self) -> str:
+        """The causal status alone ('confounded'), without the confounders ('' when unknown)."""
+        return (self.causal or "").split(":", 1)[0].strip()
+
+    @property
+    def causal_label(self) -> str:
+        """The causal check for people to read: 'caused', 'confounded by traffic_light1',
+        'not sufficient' (entity names kept as written)."""
+        status, _, names = (self.causal or "").partition(":")
+        label = status.strip().replace("_", " ")
+        if names.strip():
+            label += (" by " if status.strip() == "confounded" else ": ") + names.strip()
+        return label
+
+    @property
+    def causal_note(self) -> str:
+        """What the causal check means for this test's result ('' when it says nothing)."""
+        return CAUSAL_NOTES.get(self.causal_status, "")
 
 
 @dataclass
@@ -135,7 +164,7 @@ def _case(raw: dict[str, Any], base: Path, folder: str) -> CaseRow:
         cause=_text(raw.get("cause")) or None, message=_text(raw.get("message")),
         collision=raw.get("collision") is True, collision_with=_text(raw.get("collision_with")) or None,
         min_ttc=_num(raw.get("min_ttc")), min_distance=_num(raw.get("min_distance")),
-        gif=_gif(base, folder, raw.get("gif")))
+        gif=_gif(base, folder, raw.get("gif")), causal=_text(raw.get("causal")) or None)
 
 
 def read_policy(run_dir: Path, folder: str, loaded) -> PolicyTests:

@@ -312,7 +312,7 @@ def run_whatif(scenario_dir: str | Path, edits: list[Edit], out: str | Path, *, 
     after = ScenarioFolder(dest).scenario()
     shown = _shown_states(edits, src.path, dest)
     judged = ({"by": "none", "plausible": None, "reason": "no model judged whether the edited cause still "
-               "causes the behavior; the simulation decided"} if judge is None
+               "causes the behavior; only the simulation decided"} if judge is None
               else judge_root(judge, scenario.domain, new_path.events))
     record = _record(src.path, scenario, verdict, outcome.verdict, after, edits, edits_by, question, judged,
                      shown)

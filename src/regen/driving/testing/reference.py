@@ -23,7 +23,8 @@ exists:
 - **Hazards ahead**: a static object (debris, a cone, a barrier, a box) or a vehicle with its
   hazard lights on, ahead within ``hazard_reach`` = 30 m and beside its lane within
   ``hazard_margin`` = 2.5 m (not in it: that is a leader), lowers its desired speed to
-  ``hazard_speed_share`` = 0.6 of the cruise speed until it has passed.
+  ``hazard_speed_share`` = 0.6 of the cruise speed until it has passed (above its desired speed
+  IDM's free term brakes at most at the comfortable deceleration b).
 - **Lane changes** (MOBIL, Kesting, Treiber and Helbing 2007), where the road has another lane in
   its direction (:class:`Lanes`) and its own lane is blocked (the nearest thing ahead in it is a
   static object, a vehicle with its hazard lights on, or a moving vehicle slower than
@@ -143,19 +144,22 @@ class ReferenceDriver:
             if not (a.category == HAZARD_ASSETS_CATEGORY or a.hazard_lights == "on"):
                 continue
             s, lat, _, _ = path_frame(ego, a.x, a.y)
-            edge = abs(lat) - ego.width / 2 - max(a.width, a.length) / 2
-            if 0.0 < s <= self.hazard_reach + ego.length and edge <= self.hazard_margin:
+            half = a.width / 2 if a.category == "vehicle" else max(a.width, a.length) / 2  # beside it
+            edge = abs(lat) - ego.width / 2 - half
+            if 0.0 < s <= self.hazard_reach + ego.length and 0.0 < edge <= self.hazard_margin:
                 return a.name
         return None
 
-    def _accel(self, obs: Observation, v0: float) -> float:
+    def _accel(self, obs: Observation, v0: float, *, clip: bool = True) -> float:
+        """IDM's acceleration [m/s^2]; above its desired speed (slowing for a hazard) the free
+        term brakes at most ``comfort_decel``. ``clip``: within what the car can do."""
         m, v = self.idm, obs.ego.speed
-        acc = m.max_accel * (1.0 - (v / max(v0, 0.1)) ** m.delta)
+        acc = max(m.max_accel * (1.0 - (v / max(v0, 0.1)) ** m.delta), -m.comfort_decel)
         leaders = self._leaders(obs)
         if leaders:
             lead = min(leaders, key=lambda o: o.gap)
             acc -= m.max_accel * (self._s_star(v, v - max(lead.speed, 0.0)) / max(lead.gap, 0.1)) ** 2
-        return max(-MAX_BRAKE, min(MAX_ACCEL, acc))
+        return max(-MAX_BRAKE, min(MAX_ACCEL, acc)) if clip else acc
 
     def _s_star(self, v: float, dv: float) -> float:
         m = self.idm
@@ -205,8 +209,8 @@ class ReferenceDriver:
         """MOBIL's incentive [m/s^2] to move to ``offset``, or None when unsafe."""
         here = self._view(obs.ego, self.target)
         there = self._view(obs.ego, offset)
-        a_now = self._accel(replace(obs, ego=here), v0)
-        a_new = self._accel(replace(obs, ego=there), v0)
+        a_now = self._accel(replace(obs, ego=here), v0, clip=False)
+        a_new = self._accel(replace(obs, ego=there), v0, clip=False)
         gain = a_new - a_now
         v = obs.ego.speed
         for ego_pos, joins in ((there, True), (here, False)):
@@ -233,7 +237,8 @@ class ReferenceDriver:
 
     def _blocked(self, obs: Observation, v0: float) -> bool:
         """Whether its lane is blocked: the nearest thing in it ahead (within 60 m) is a static
-        object or a vehicle slower than half its desired speed, and neither a person (it yields
+        object, a vehicle with its hazard lights on, or a moving vehicle slower than
+        ``slow_share`` of its desired speed with its brake lights off, and neither a person (it yields
         to people) nor an emergency vehicle with its siren on (a checkpoint: it stops)."""
         ahead = obstacles_in_path(replace(obs, ego=self._view(obs.ego, self.target)))
         if not ahead:
