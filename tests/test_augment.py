@@ -78,7 +78,7 @@ def test_a_claim_that_the_cause_is_irrelevant_fails_and_an_unknown_addition_is_n
     assert "claim fails" in res.output
 
 
-def test_an_addition_is_judged_as_a_cause_of_the_behavior_not_of_the_old_cause(scene, tmp_path, monkeypatch):
+def test_an_addition_is_judged_as_a_cause_of_the_behavior_and_the_judge_never_overrides(scene, tmp_path, monkeypatch):
     provider = QueuedProvider([{"add": ["a cyclist rides ahead"], "irrelevant": []},
                                {"answer": "no", "reason": "a cyclist riding ahead gives no reason to brake hard"}])
     monkeypatch.setitem(registry._FACTORIES, "queued", lambda name, **kw: provider)
@@ -89,5 +89,6 @@ def test_an_addition_is_judged_as_a_cause_of_the_behavior_not_of_the_old_cause(s
     assert "a cyclist rides ahead" in asked and "stops abruptly" in asked  # the behavior, not the truck
     record = json.loads((tmp_path / "aug" / "01-truck-brakes-augment" / "augment.json").read_text())
     (added,) = record["additions"]
-    assert added["status"].startswith("verified") and not added["holds"]
-    assert "no cause of the behavior" in added["reason"]
+    # the judge's no is recorded beside the simulation's answer, never over it
+    assert added["status"].startswith("verified") and added["holds"]
+    assert "no cause of the behavior" in added["reason"] and "the simulation decides" in added["reason"]

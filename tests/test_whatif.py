@@ -149,26 +149,44 @@ def test_a_question_in_words_becomes_edits(front_car, tmp_path, monkeypatch):
     assert "brake lights broken" in provider.requests[1][-1]["content"]  # the judge saw the edited cause
 
 
-def test_a_cause_the_judge_rejects_no_longer_explains_the_behavior(tmp_path, monkeypatch):
-    folder = tmp_path / "run" / "scenarios" / "01-red-light"
+@pytest.fixture(scope="module")
+def red_light(tmp_path_factory) -> Path:
+    folder = tmp_path_factory.mktemp("run") / "scenarios" / "01-red-light"
     red = chain("stop_abruptly", "the traffic light ahead turns red", ("traffic_light", {"light_state": ["turns_red"]}))
-    assert run_path(red, folder, pictures=False).verdict.feasible
+    out = run_path(red, folder, pictures=False)
+    assert out.verdict.feasible and out.verdict.causal.status == "caused", out.verdict.causal
+    return folder
+
+
+def test_a_green_light_no_longer_explains_the_stop_without_a_judge(red_light, tmp_path):
+    res = _whatif(red_light, "--set", "traffic_light1.light_state=green", "--out", str(tmp_path / "wi"),
+                  "--no-pictures")
+    assert res.exit_code == 0, res.output
+    _, record = _record(res)
+    # the scripted ego stops whatever the light shows, so the FSM still plays out; the reference
+    # driver does not stop at a green light: the but-for check says so, with no model asked
+    assert record["status"].startswith("verified") and record["causal"] == "not_sufficient"
+    assert not record["explained"] and record["original_explained"] and record["judged"]["by"] == "none"
+    assert "no longer explained" in res.output and "does not stop" in record["reason"]
+
+
+def test_the_judge_is_recorded_beside_the_simulation_never_over_it(red_light, tmp_path, monkeypatch):
     _queued(monkeypatch, {"answer": "yes", "reason": "a light makes cars stop"})  # a judge that says yes
-    res = _whatif(folder, "--set", "traffic_light1.light_state=green", "--llm", "queued", "--no-pictures", judge=True)
+    res = _whatif(red_light, "--set", "traffic_light1.light_state=green", "--llm", "queued", "--no-pictures",
+                  "--out", str(tmp_path / "wi"), judge=True)
     assert res.exit_code == 0, res.output
     _, record = _record(res)
-    # the scripted ego stops whatever the light shows: the simulation alone would call it explained
-    assert record["status"].startswith("verified") and not record["explained"]
-    # the rule against causes that make the ego do the opposite decides, whatever the judge said
+    assert not record["explained"] and record["causal"] == "not_sufficient"
+    # the rule against causes that make the ego do the opposite says no, recorded beside
     assert record["judged"]["plausible"] is False
-    assert "makes the opposite happen ('turns green'" in record["reason"]
-    assert "no longer explained" in res.output
-    # where no rule decides, the judge's no does
+    # a judge's no where the reference driver stops (a yellow light it can stop for) changes nothing
     _queued(monkeypatch, {"answer": "no", "reason": "a yellow light gives time to pass"})
-    res = _whatif(folder, "--set", "traffic_light1.light_state=yellow", "--llm", "queued", "--no-pictures", judge=True)
+    res = _whatif(red_light, "--set", "traffic_light1.light_state=yellow", "--llm", "queued", "--no-pictures",
+                  "--out", str(tmp_path / "wi2"), judge=True)
     assert res.exit_code == 0, res.output
     _, record = _record(res)
-    assert record["judged"]["plausible"] is False and record["reason"].endswith("a yellow light gives time to pass")
+    assert record["judged"]["plausible"] is False and record["causal"] == "caused" and record["explained"]
+    assert "the model judge disagrees" in record["reason"] and "the simulation decides" in record["reason"]
 
 
 @pytest.mark.parametrize(("args", "words"), [

@@ -417,18 +417,13 @@ def runs_show(run: str = typer.Argument(..., help="A run folder")) -> None:
         got = read_model(folder.scenario(name) / "verdict.json", Verdict)
         if got.ok:
             v = got.value
-            status = shown(v.status)
-            reason = shown(v.reason)
-            causal = causal_text(v.causal)  # beside the status, never instead of it
-            if v.causal is None:
-                mark = "[dim]not checked[/]"
-            else:
-                checked += 1
-                caused += v.causal.status == "caused"
-                colour = {"caused": "green", "not_checked": "dim"}.get(v.causal.status, "yellow")
-                mark = f"[{colour}]{shown(causal)}[/]"
-                if v.causal.status != "caused" and v.causal.reason:
-                    reason += f"\ncause: {shown(v.causal.reason)}"
+            status, reason, c = shown(v.status), shown(v.reason), v.causal  # causal: beside the status
+            mark = "[dim]not checked[/]"
+            if c is not None:
+                checked, caused = checked + 1, caused + (c.status == "caused")
+                colour = {"caused": "green", "not_checked": "dim"}.get(c.status, "yellow")
+                mark = f"[{colour}]{shown(causal_text(c))}[/]"
+                reason += f"\ncause: {shown(c.reason)}" if c.status != "caused" and c.reason else ""
             table.add_row(shown(name), f"[green]{status}[/]" if v.feasible else f"[red]{status}[/]",
                           mark, reason)
         elif got.problem == "missing":
