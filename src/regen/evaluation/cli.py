@@ -110,12 +110,13 @@ def _fidelity(source: str, out: Path | None, llm: str, console: Console) -> None
     rows = table(results)
     t = Table(title=f"Entity fidelity ({len(results)} cases, model {escape(llm)})")
     for col in ("domain", "split", "cases", "entity acc.", "key-state acc.", "verified",
-                "verified & unfaithful", "unfaithful verdicts"):
+                "verified & unfaithful", "unfaithful verdicts", "verified & caused (of checked)"):
         t.add_column(col)
     for r in rows:
         state = "-" if r["state_accuracy"] is None else f"{r['state_accuracy']:.2f}"
         t.add_row(r["domain"], r["split"], str(r["cases"]), f"{r['entity_accuracy']:.2f}", state,
-                  str(r["verified"]), str(r["verified_and_unfaithful"]), str(r["unfaithful_verdicts"]))
+                  str(r["verified"]), str(r["verified_and_unfaithful"]), str(r["unfaithful_verdicts"]),
+                  f"{r['verified_and_caused']} ({r['verified_causal_checked']})")
     console.print(t)
     (out / "fidelity_table.json").write_text(json.dumps(rows, indent=2) + "\n", encoding="utf-8")
     console.print(f"per case: {escape(str(out / 'fidelity.jsonl'))}")

@@ -12,7 +12,9 @@ the case's labels:
   the matching entity has (its motion primitive for ``behavior``);
 - verified and unfaithful: verified scenarios whose labels do not match (an expected entity or
   state missing): the figure that must be 0;
-- the verdicts, ``unfaithful`` ones included (the verifier's own fidelity check).
+- the verdicts, ``unfaithful`` ones included (the verifier's own fidelity check);
+- verified and caused: verified scenarios whose but-for check (:mod:`regen.verify.causal`) says
+  ``caused``, beside how many it could check.
 
 Figures are given per split (``tune``, ``test``): a figure counts only on the half nobody tuned on.
 """
@@ -41,6 +43,7 @@ class CaseResult:
     states_total: int
     shown: list[str] = field(default_factory=list)  # 'asset (primitive; prop = value)'
     folder: str = ""
+    causal: str | None = None  # the scenario's causal status (regen.verify.causal), if checked
 
     @property
     def verified(self) -> bool:
@@ -65,7 +68,8 @@ def _entity_values(entity: dict[str, Any]) -> dict[str, str]:
     return props
 
 
-def score(case: Any, scenario: dict[str, Any] | None, status: str, folder: str = "") -> CaseResult:
+def score(case: Any, scenario: dict[str, Any] | None, status: str, folder: str = "",
+          causal: str | None = None) -> CaseResult:
     """One case's figures from its scenario (as scenario.json holds it) and verdict status."""
     cast = [e for e in (scenario or {}).get("entities", []) if e.get("kind") not in ("robot", "ego")]
     shown = [f"{e['asset']} ({e.get('behavior') or 'stationary'}"
@@ -79,7 +83,7 @@ def score(case: Any, scenario: dict[str, Any] | None, status: str, folder: str =
         for prop, values in want.states.items():
             total += 1
             ok += any(_entity_values(e).get(prop) in values for e in match)
-    return CaseResult(case.id, case.domain, case.split, status, entities_ok, ok, total, shown, folder)
+    return CaseResult(case.id, case.domain, case.split, status, entities_ok, ok, total, shown, folder, causal)
 
 
 def run_case(case: Any, out: Path, *, llm: str, seed: int = 0) -> CaseResult:
@@ -104,7 +108,8 @@ def run_case(case: Any, out: Path, *, llm: str, seed: int = 0) -> CaseResult:
         scenario = (json.loads(scenario_file.read_text(encoding="utf-8")).get("scenario")
                     if scenario_file is not None and scenario_file.exists() else None)
         if scenario is not None and _same(scenario["causal_graph"][0], case.cause):
-            return score(case, scenario, o.verdict.status, str(o.path))
+            causal = o.verdict.causal.status if o.verdict.causal is not None else None
+            return score(case, scenario, o.verdict.status, str(o.path), causal)
         if scenario is None and o.path is not None and _same(_started_cause(Path(o.path)), case.cause):
             return score(case, None, o.verdict.status, str(o.path))
     return score(case, None, "no scenario: the insisted cause was not simulatable", str(folder))
@@ -159,6 +164,9 @@ def table(results: Sequence[CaseResult]) -> list[dict[str, Any]]:
                      "state_accuracy": (sum(r.states_ok for r in rs) / total) if total else None,
                      "verified": len(verified),
                      "verified_and_unfaithful": sum(r.label_unfaithful for r in verified),
+                     # of the verified: how many the but-for check found caused, and how many it checked
+                     "verified_and_caused": sum(r.causal == "caused" for r in verified),
+                     "verified_causal_checked": sum(r.causal not in (None, "not_checked") for r in verified),
                      "unfaithful_verdicts": sum(r.status == "unfaithful" for r in rs)})
     return rows
 

@@ -35,6 +35,8 @@ class DrivingHarness(PolicyHarness):
                "lights and closing sirens",
         "constant-speed": "holds the route's cruise speed and ignores everyone",
         "aeb": "cruises, brakes fully when the time to collision drops under 1.5 s",
+        "reference": "the careful driver of the but-for check (IDM, lights, yielding, sirens, checkpoints, "
+                     "hazards); here without lane changes",
     }
     step_timeout = loop.STEP_TIMEOUT
     parameter_units = {"s": "m", "v": "m/s", "t": "s", "d0": "m"}
