@@ -17,10 +17,22 @@ from typing import Any
 from regen.core.scenario import AbstractState, Scenario
 from regen.core.trace import Trace
 from regen.driving.testing import loop, policies, variants
+from regen.driving.testing.reference import ReferenceDriver
 from regen.driving.verify.collisions import SafetyReport, analyze
 from regen.harness.contract import Episode, Incident, PolicyHarness, TemplateRun, wire_numbers
 
 EGO = "ego"
+
+#: the policies ``regen test`` knows by name: the built-in ones and the reference driver (which,
+#: without the road's lanes that no policy observes, never changes lane)
+BUILTIN = {**policies.BUILTIN, "reference": ReferenceDriver}
+
+
+def load_policy(spec: str) -> policies.Policy:
+    """:func:`regen.driving.testing.policies.load_policy`, with the reference driver by name too."""
+    from regen.harness.loading import load_callable
+
+    return load_callable(spec, BUILTIN)
 
 # How hard the template ego brakes or accelerates is its manner, not the behavior under test: a
 # policy that brakes earlier and more gently still stops for the cause. The oracle replaces these
@@ -50,7 +62,7 @@ class DrivingHarness(PolicyHarness):
         return self._last[1]
 
     # the contract's policy loading and episodes are this domain's own functions
-    load_policy = staticmethod(policies.load_policy)
+    load_policy = staticmethod(load_policy)
     prepare = staticmethod(loop.prepare)
     run_policy = staticmethod(loop.run_policy)
 
@@ -97,4 +109,4 @@ class DrivingHarness(PolicyHarness):
         return render_failure(scenario, episode.trace, case, Path(out).parent, policy=policy)
 
 
-__all__ = ["EGO", "MANNER", "DrivingHarness"]
+__all__ = ["BUILTIN", "EGO", "MANNER", "DrivingHarness", "load_policy"]

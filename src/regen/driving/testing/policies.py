@@ -17,9 +17,9 @@ Built in (:data:`BUILTIN`): ``constant-speed`` (holds the route's cruise speed, 
 yellow lights near its path; yields to pedestrians and crossing actors about to enter its path;
 stops for an emergency vehicle with its siren on that comes closer within 40 m),
 ``aeb`` (constant speed plus full emergency braking when the time to collision with something in
-its path falls below 1.5 s), ``reference`` (the careful driver that decides whether a cause
-causes a behavior, :mod:`regen.driving.testing.reference`; without the road's lanes, which a
-policy does not observe, it never changes lane). All steer along the route (:func:`route_curvature`).
+its path falls below 1.5 s). All steer along the route (:func:`route_curvature`). ``regen test``
+also knows ``reference`` (:data:`regen.driving.testing.harness.BUILTIN`): the careful driver of
+the but-for check, :mod:`regen.driving.testing.reference`.
 
 :func:`load_policy` resolves a SPEC: a built-in name, ``module:callable`` or
 ``path/to/file.py:callable`` (imported by file path, so a file outside the repository works).
@@ -310,17 +310,10 @@ class AEB:
         return constant_speed(obs)
 
 
-def _reference() -> Policy:
-    from regen.driving.testing.reference import ReferenceDriver  # it builds on this module
-
-    return ReferenceDriver()
-
-
 BUILTIN: dict[str, Callable[[], Policy]] = {
     "constant-speed": lambda: constant_speed,
     "idm": IDM,
     "aeb": AEB,
-    "reference": _reference,
 }
 
 
