@@ -39,8 +39,8 @@ def _interop_tools() -> bool:
 
 def test_recorded_main_job_verifies_distinct_causes_as_the_graph_chose_and_resumes(tmp_path: Path) -> None:
     """The README job with the offline model's recorded answers: at least three scenarios with
-    distinct causes, each verified with its cause's actor doing what the graph chose, a GIF
-    each; where the rules replaced a model answer, the verdict says so."""
+    distinct causes, each verified and caused with its cause's actor doing what the graph chose,
+    a GIF each; where the rules replaced a model answer, the verdict says so."""
     pytest.importorskip("scenic", reason="the 'driving' extra is not installed")
     run = tmp_path / "run"
     run.mkdir()
@@ -56,6 +56,11 @@ def test_recorded_main_job_verifies_distinct_causes_as_the_graph_chose_and_resum
             assert all("dropped the model's state" in r for r in o.verdict.relaxations)
     causes = [o.scenario().causal_graph[0] for o in res.outcomes]
     assert len(set(causes)) == len(causes)
+    # verified means caused: the reference driver stops for each cause and not without it; the
+    # red light the graph put beside the pedestrian was kept green by grounding, and says so
+    assert [o.verdict.causal.status for o in res.outcomes] == ["caused"] * len(res.outcomes), \
+        [o.verdict.causal.reason for o in res.outcomes]
+    assert any("a confounder" in f for o in res.outcomes for f in o.verdict.fallbacks)
     graph = json.loads((run / "graph.json").read_text())
     chosen = {}  # asset -> property -> accepted values in the graph
     for n in graph["nodes"].values():

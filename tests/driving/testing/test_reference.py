@@ -269,10 +269,18 @@ def test_goes_around_a_slow_bicycle():
     # one riding at most a little slower than it wants to go is followed, not overtaken
     quick = _actor("bike", x=30.0, vx=8.0, asset="bicycle", length=1.8, width=0.6)
     assert _target_after(ReferenceDriver(LEFT), quick, calls=3) == 0.0
-    # nor one braking (brake lights on): traffic that slows for a reason
-    braking = _actor("bike", x=30.0, vx=3.0, asset="bicycle", length=1.8, width=0.6,
-                     brake_lights="on")
-    assert _target_after(ReferenceDriver(LEFT), braking, calls=3) == 0.0
+    # nor one that just slowed down to that speed: traffic that slows for a reason. It reads the
+    # motion, not the brake lights (which may be broken, the paper's probe)
+    driver = ReferenceDriver(LEFT)
+    driver(Observation(t=0.0, dt=0.1, ego=_ego(), actors=(_actor("bike", x=30.0, vx=8.0, asset="bicycle",
+                                                                  length=1.8, width=0.6),)))
+    slowed = _actor("bike", x=30.8, vx=3.0, asset="bicycle", length=1.8, width=0.6, brake_lights="off")
+    for k in range(1, 4):
+        driver(Observation(t=0.1 * k, dt=0.1, ego=_ego(), actors=(slowed,)))
+    assert driver.target == 0.0
+    # brake lights alone (no slowing seen) do not make it traffic
+    lit = _actor("bike", x=30.0, vx=3.0, asset="bicycle", length=1.8, width=0.6, brake_lights="on")
+    assert _target_after(ReferenceDriver(LEFT), lit) == 3.5
 
 
 # --- 9. moving off ------------------------------------------------------------------------------

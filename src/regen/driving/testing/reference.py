@@ -28,7 +28,8 @@ exists:
 - **Lane changes** (MOBIL, Kesting, Treiber and Helbing 2007), where the road has another lane in
   its direction (:class:`Lanes`) and its own lane is blocked (the nearest thing ahead in it is a
   static object, a vehicle with its hazard lights on, or a moving vehicle slower than
-  ``slow_share`` = 0.7 of its desired speed, its brake lights off; never a person, whom it yields to, a standing emergency vehicle with its siren
+  ``slow_share`` = 0.7 of its desired speed that has not slowed (by more than 0.5 m/s^2) in the
+  last 3 s: it reads motion, not brake lights, which may be broken; never a person, whom it yields to, a standing emergency vehicle with its siren
   on, a checkpoint it stops at, nor a vehicle that stopped in traffic, which it waits behind): it changes to an adjacent lane when the incentive
   ``a~_ego - a_ego + p * ((a~_n - a_n) + (a~_o - a_o)) > delta_a_th`` holds and the new follower
   would brake no harder than ``b_safe``; politeness p = 0.3, threshold delta_a_th = 0.2 m/s^2,
@@ -100,6 +101,8 @@ class ReferenceDriver:
     b_safe: float = 4.0  # [m/s^2] the most a new follower may have to brake
     lateral_speed: float = 1.0  # [m/s] across lanes
     slow_share: float = 0.7  # a vehicle ahead slower than this share of its desired speed is slow
+    braking_decel: float = 0.5  # [m/s^2] a vehicle slowing faster than this is braking ...
+    braked_memory: float = 3.0  # [s] ... and counts as traffic, not as slow, this long after
     start_hold: float = 30.0  # [m] standing, it waits for what stands this near ahead to clear
     siren_stop_in: float = 12.0  # [m] ahead of where it notices a siren closing in, it stops
 
@@ -110,6 +113,8 @@ class ReferenceDriver:
         self.offset = 0.0  # where it is now, from its route [m], left positive
         self.target = 0.0  # the lane it is in or moving to
         self._yield_at: dict[str, tuple[float, float]] = {}  # siren vehicle -> where it stops [m]
+        self._speeds: dict[str, tuple[float, float]] = {}  # vehicle -> (t [s], speed [m/s]) last seen
+        self._braked_at: dict[str, float] = {}  # vehicle -> when it last slowed [s]
         #: per step, (t [s], what it reacted to: its leader, a hazard it slowed for, or None)
         self.reacting_to: list[tuple[float, str | None]] = []
 
@@ -238,7 +243,7 @@ class ReferenceDriver:
     def _blocked(self, obs: Observation, v0: float) -> bool:
         """Whether its lane is blocked: the nearest thing in it ahead (within 60 m) is a static
         object, a vehicle with its hazard lights on, or a moving vehicle slower than
-        ``slow_share`` of its desired speed with its brake lights off, and neither a person (it yields
+        ``slow_share`` of its desired speed that has not slowed lately, and neither a person (it yields
         to people) nor an emergency vehicle with its siren on (a checkpoint: it stops)."""
         ahead = obstacles_in_path(replace(obs, ego=self._view(obs.ego, self.target)))
         if not ahead:
@@ -249,9 +254,22 @@ class ReferenceDriver:
             return False
         if actor.category == "static" or actor.hazard_lights == "on":
             return True
-        # a slow vehicle (a cyclist, a bus, one coming the wrong way); one braking or standing
-        # still in its lane is traffic that stops for a reason: it waits behind it
-        return lead.speed < self.slow_share * v0 and actor.speed > 0.5 and actor.brake_lights != "on"
+        # a slow vehicle (a cyclist, a bus, one coming the wrong way); one that slowed lately or
+        # stands in its lane is traffic that stops for a reason: it waits behind it. It reads the
+        # motion, not the brake lights (which may be broken)
+        braked = self._braked_at.get(actor.name)
+        recently = braked is not None and obs.t - braked <= self.braked_memory
+        return lead.speed < self.slow_share * v0 and actor.speed > 0.5 and not recently
+
+    def _watch(self, obs: Observation) -> None:
+        """Remember when each vehicle last slowed by more than ``braking_decel``."""
+        for a in obs.actors:
+            if a.category != "vehicle":
+                continue
+            before = self._speeds.get(a.name)
+            if before is not None and obs.t > before[0] and (before[1] - a.speed) / (obs.t - before[0]) > self.braking_decel:
+                self._braked_at[a.name] = obs.t
+            self._speeds[a.name] = (obs.t, a.speed)
 
     def _choose_lane(self, obs: Observation, v0: float) -> None:
         if abs(self.offset - self.target) > 1e-6 or not self.lanes.offsets or not self._blocked(obs, v0):
@@ -274,6 +292,7 @@ class ReferenceDriver:
         v0 = max(ego.cruise_speed, 0.1)
         if self._hazard(replace(obs, ego=self._view(ego, self.offset))) is not None:
             v0 = max(ego.cruise_speed * self.hazard_speed_share, 0.1)
+        self._watch(obs)
         before = self.target
         self._choose_lane(obs, v0)
         step = self.lateral_speed * obs.dt
