@@ -162,3 +162,13 @@ def test_behavior_tests_show_the_scenarios_causal_check(make_run) -> None:
     body = cases[cases.index("<tbody>"):cases.index("</tbody>")]
     cells = [_text(c).strip() for c in re.findall(r'<td class="causal">(.*?)</td>', body, re.S)]
     assert cells == ["confounded by traffic_light1", "caused", "—"]
+
+
+def test_the_narratives_claims_the_simulation_does_not_show_are_listed(make_run) -> None:
+    v = with_causal(caused())
+    v.claims = ["the model's claim: 'It stops, causing a collision.' ('collision'); the simulation shows no collision"]
+    run = make_run([{"verdict": v}, {"verdict": with_causal(caused())}])
+    html = write_report(run).read_text(encoding="utf-8")
+    first, second = _section(html, "scenario-1"), _section(html, "scenario-2")
+    assert "claims what did not happen" in first and "the simulation shows no collision" in _text(first)
+    assert "claims what did not happen" not in second
