@@ -60,6 +60,15 @@ def test_a_light_the_words_name_is_the_cause_and_keeps_its_state():
     assert not any("confounder" in f for f in scenario.fallbacks)
 
 
+def test_another_actors_red_light_is_not_the_egos():
+    runner = chain("stop_in_intersection", "a car runs the red light from the cross street",
+                   ("sedan", {"behavior": ["run_red_light"], "start_location": ["junction_cross_street"],
+                              "target_speed": ["moderate"]}), RED)
+    scenario = domains.make("driving").ground(runner, None)
+    assert scenario.entity("traffic_light1").properties["light_state"] == "green"  # the runner's is red
+    assert any("a confounder" in f for f in scenario.fallbacks)
+
+
 def test_a_cause_too_far_away_to_matter_is_not_sufficient():
     scenario = ground_rule_based(chain("stop_abruptly", "a child runs across the road", CHILD))
     assert _check(scenario).status == "caused"

@@ -18,12 +18,24 @@ from collections.abc import Sequence
 
 from regen.assets.database import AssetDatabase
 from regen.core.graph import CausePath
+from regen.core.words import name_words
 
 #: property -> (states that make a driver react on their own, the state that does not)
 CONTROLS: dict[str, tuple[frozenset[str], str]] = {
     "light_state": (frozenset({"red", "yellow", "turns_red"}), "green"),
     "siren": (frozenset({"on"}), "off"),
 }
+
+
+def _names_own_state(db: AssetDatabase, asset: str, prop: str, event: str, path: CausePath) -> bool:
+    """Whether ``event`` names this entity's ``prop`` state, not another actor's motion whose
+    words hold it ('a car runs the red light': the runner's red light, not the ego's)."""
+    hit = db.named_state(asset, prop, event)
+    if hit is None:
+        return False
+    words = set(name_words(hit[1]))
+    motions = {m for pe in path.entities for m in pe.properties.get("behavior", [])}
+    return not any(words <= set(name_words(m)) for m in motions)
 
 
 def quiet_context(path: CausePath, db: AssetDatabase, *, robot: Sequence[str] = ()) -> tuple[CausePath, list[str]]:
@@ -44,12 +56,13 @@ def quiet_context(path: CausePath, db: AssetDatabase, *, robot: Sequence[str] = 
             values = props.get(prop)
             if not values or not set(values) <= reacting or neutral not in (db.property_candidates(pe.asset, prop) or []):
                 continue
-            if any(db.named_state(pe.asset, prop, event) for event in causes):
+            if any(_names_own_state(db, pe.asset, prop, event, path) for event in causes):
                 continue  # the words name the state itself ('at a red light')
             props[prop] = [neutral]
-            notes.append(f"{pe.asset} ({prop} = {'/'.join(values)} -> {neutral}): the cause's words name no "
-                         f"{pe.asset.replace('_', ' ')}, and a {pe.asset.replace('_', ' ')} with {prop} = "
-                         f"{values[0]} would explain the ego's reaction on its own (a confounder)")
+            what = pe.asset.replace("_", " ")
+            notes.append(f"{pe.asset} ({prop} = {'/'.join(values)} -> {neutral}): the cause's words do not name "
+                         f"this {what} or its state, and a {what} with {prop} = {values[0]} would explain the "
+                         f"ego's reaction on its own (a confounder)")
         entities.append(pe.model_copy(update={"properties": props}))
     return path.model_copy(update={"entities": entities}), notes
 
