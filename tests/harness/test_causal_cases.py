@@ -9,14 +9,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from line_harness import LineHarness, line_scenario, line_trace
 
 import regen.harness.suite as suite
 from regen.core.io import write_json
-from regen.core.scenario import FSM, AbstractState, Entity, PredicateCall, Scenario, Stage, StateRef
-from regen.core.trace import ActorTrack, Trace
+from regen.core.scenario import Scenario
 from regen.core.verdict import Causal, Verdict
 from regen.harness.cases import CaseResult, case_line
-from regen.harness.contract import Episode, Incident, PolicyHarness, TemplateRun
+from regen.harness.contract import Episode
 
 OLD_KEYS = {"scenario", "scenario_id", "variant", "status", "cause", "message", "collision", "collision_with",
             "collision_time", "min_ttc", "min_distance", "metrics", "infractions", "robot_stages", "simulated",
@@ -44,53 +44,15 @@ def test_the_terminal_line_shows_the_causal_check() -> None:
 # --- regen test on a tiny run folder --------------------------------------------------------------
 
 
-class _Line(PolicyHarness):
-    """A robot on a line that must reach x >= 5; it reaches x = 6, unless the scenario's id says
-    'crash', where it runs into the box at x = 8."""
-
-    robot = "robot"
-
-    def load_policy(self, spec):
-        raise NotImplementedError
-
-    def action_to_wire(self, action):
-        return [float(action)]
-
-    def action_from_wire(self, data):
-        return data[0]
-
-    def prepare(self, scenario):
-        return scenario
+class _Line(LineHarness):
+    """Reaches x = 6, unless the scenario's id says 'crash', where it runs into the box at x = 8."""
 
     def run_policy(self, prepared, policy, *, step_timeout):
-        xs = [0.0, 3.0, 6.0, 9.0] if "crash" in prepared.id else [0.0, 3.0, 6.0, 6.5]
-        n = len(xs)
-        track = ActorTrack(asset="bot", x=xs, y=[0.0] * n, heading=[0.0] * n, speed=[1.0] * n, length=1.0,
-                           width=1.0)
-        box = ActorTrack(asset="box", x=[8.5] * n, y=[0.0] * n, heading=[0.0] * n, speed=[0.0] * n, length=1.0,
-                         width=1.0)
-        return Episode(trace=Trace(dt=1.0, times=[float(k) for k in range(n)], actors={"r": track, "box": box}))
-
-    def incidents(self, scenario, trace):
-        x = trace.actors["r"].x
-        hit = next((k for k, v in enumerate(x) if v >= 8.0), None)
-        return [] if hit is None else [Incident("collision", trace.times[hit], hit, ("r", "box"),
-                                                "r touched box", collision=True)]
-
-    def sample_variants(self, scenario, n, seed, *, extremes=False):
-        return [scenario]
-
-    def check_template(self, scenario):
-        return TemplateRun(verdict=None)
+        return Episode(trace=line_trace([0.0, 3.0, 6.0, 9.0] if "crash" in prepared.id else [0.0, 3.0, 6.0, 6.5]))
 
 
 def _scenario(sid: str) -> Scenario:
-    far = AbstractState(name="far", actor="r", all_of=[PredicateCall(name="moving", args=["r"])])
-    fsm = FSM(states=[far], stages=[Stage(conditions=[StateRef(actor="r", state="far")])])
-    return Scenario(id=sid, domain="line", behavior={"text": "it moves", "domain": "line"},
-                    causal_graph=["a box", "it moves"], narrative="",
-                    entities=[Entity(name="r", asset="bot", kind="robot"), Entity(name="box", asset="box", kind="object")],
-                    fsm=fsm)
+    return line_scenario(sid, causes=("a box",))
 
 
 def _verdict(ok: bool, causal: Causal | None) -> Verdict:
