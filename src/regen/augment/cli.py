@@ -24,8 +24,8 @@ def augment_command(
     llm: str = typer.Option("local", "--llm", help=LLM_HELP),
     replay: bool = typer.Option(False, "--replay", help="Forbid model calls: cached answers only"),
     pictures: bool = typer.Option(True, "--pictures/--no-pictures", help="Draw each counterfactual's GIF"),
-    judge: bool = typer.Option(True, "--judge/--no-judge", help="Ask the model whether each changed chain's root "
-                               "cause still causes the behavior (--no-judge: the simulation alone decides)"),
+    judge: bool = typer.Option(True, "--judge/--no-judge", help="Also ask the model whether each added cause "
+                               "causes the behavior; recorded beside the simulation's answer, which decides"),
 ) -> None:
     """Augment a scene: causes that would add to the behavior, entities that do not matter, each tested."""
     from regen.augment import run_augment

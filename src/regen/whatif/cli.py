@@ -46,9 +46,9 @@ def whatif_command(
     llm: str = typer.Option("local", "--llm", help=LLM_HELP),
     replay: bool = typer.Option(False, "--replay", help="Forbid model calls: cached answers only"),
     pictures: bool = typer.Option(True, "--pictures/--no-pictures", help="Draw the counterfactual's GIF"),
-    judge: bool = typer.Option(True, "--judge/--no-judge", help="Ask the model (--llm) whether the edited "
-                               "cause still causes the behavior (the scripted robot reacts whatever the "
-                               "cause); --no-judge: the simulation alone decides, and the record says so"),
+    judge: bool = typer.Option(True, "--judge/--no-judge", help="Also ask the model (--llm) whether the edited "
+                               "cause still causes the behavior; its answer is recorded beside the "
+                               "simulation's (the but-for check with the reference robot), which decides"),
 ) -> None:
     """Counterfactual what-if: edit a scenario's cause chain, then ground, simulate and verify it again."""
     from regen import whatif
