@@ -504,3 +504,21 @@ def test_recorded_model_answers_ground_simulate_and_verify(key, tmp_path):
     if key == "ambulance":
         assert [x.split(" (")[0] for x in r.verdict.relaxations] == [
             "stage 3: dropped the model's state ambulance1: same_lane"]
+
+
+def test_a_state_named_for_a_light_colour_it_does_not_show_is_renamed():
+    from regen.core.scenario import FSM, AbstractState, PredicateCall, Stage, StateRef
+    from regen.driving.grounding.fsm_rules import honest_names
+
+    def light(name: str, value: str) -> AbstractState:
+        return AbstractState(name=name, actor="traffic_light1",
+                             all_of=[PredicateCall(name="light_is", args=["traffic_light1"], params={"value": value})])
+
+    states = [light("red", "green"), light("green", "green"), light("turns_red", "red"), light("not_red", "green")]
+    fsm_in = FSM(states=states, stages=[Stage(conditions=[StateRef(actor="traffic_light1", state=s.name)])
+                                        for s in states])
+    out, notes = honest_names(fsm_in)
+    assert [s.name for s in out.states] == ["light_is_green", "green", "turns_red", "not_red"]
+    (note,) = notes
+    assert "'red' renamed 'light_is_green' (the name claims a red light" in note
+    assert out.stages[0].conditions[0].state == "light_is_green"

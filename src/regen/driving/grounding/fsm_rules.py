@@ -204,6 +204,8 @@ _CLAIMS: tuple[tuple[re.Pattern[str], frozenset[str], str], ...] = tuple(
         (r"accelerat|speeding_up", frozenset({"accelerating"}), "accelerating"),
         (r"chang\w*_lanes?|lane_chang|merg|swerv|cut\w*_in", frozenset({"changing_lane"}), "a lane change"),
     ))
+#: light colours a state's name may claim -> the light_is value that shows it
+_COLOURS = {"red": "red", "yellow": "yellow", "amber": "yellow", "green": "green"}
 _DENIED = re.compile(r"(?:^|_)(?:no|not|non|avoid\w*|without|near|almost|pre|before|after|about_to|un)(?:_|$)")
 _WORD = re.compile(r"[a-z0-9]+")
 
@@ -217,6 +219,10 @@ def _unclaimed(name: str, calls: Calls) -> str | None:
     for pattern, needs, what in _CLAIMS:
         if pattern.search(key) and not held & needs:
             return what
+    shown = {str(c.params.get("value")) for c in calls if c.name == "light_is" and not c.negate}
+    for word, value in _COLOURS.items():  # 'red' holding light_is(..., green) claims a red light
+        if re.search(rf"(?:^|_){word}(?:_|$)", key) and value not in shown:
+            return f"a {word} light"
     return None
 
 
@@ -234,7 +240,8 @@ def honest_names(fsm: FSM) -> tuple[FSM, list[str]]:
         if what is None:
             continue
         base = "_".join(dict.fromkeys(
-            "_".join([("not_" if c.negate else "") + c.name, *(a for a in c.args if a != s.actor)])
+            "_".join([("not_" if c.negate else "") + c.name, *(a for a in c.args if a != s.actor),
+                      *([str(c.params["value"])] if "value" in c.params else [])])
             for c in s.all_of))
         new, k = base, 1
         while (s.actor, new) in taken:
