@@ -51,6 +51,23 @@ class ReferenceWorld(Protocol):
         ...
 
 
+def named_by_causes(db: AssetDatabase, events: Sequence[str], *, robot: Sequence[str] = (),
+                    own: frozenset[str] = frozenset()) -> set[str]:
+    """The asset names (ids and the names they were called by) that the cause ``events`` name,
+    in words or by words that together imply one."""
+    named: set[str] = set()
+    for event in events:
+        hits = db.named_in(event, exclude=robot, skip=own)
+        hits += db.implied_by_words(event, exclude=robot, skip=own | {m.asset for m in hits})
+        named |= {m.key for m in hits} | {m.asset for m in hits}
+    return named
+
+
+def answers_to_any(db: AssetDatabase, asset: str, named: set[str]) -> bool:
+    """Whether an entity of ``asset`` plays one of the ``named`` assets."""
+    return asset in db.assets and any(asset == n or db.answers_to(asset, n) for n in named)
+
+
 def split_cast(scenario: Scenario, db: AssetDatabase, *, robot: Sequence[str] = (),
                own: frozenset[str] = frozenset(), graph_assets: Sequence[str] | None = None
                ) -> tuple[list[str], list[str], str]:
@@ -60,14 +77,8 @@ def split_cast(scenario: Scenario, db: AssetDatabase, *, robot: Sequence[str] = 
     name none, the entities the causal graph chose (``graph_assets``, in order, matched by
     asset); without those, every entity."""
     cast = [e for e in scenario.entities if e.kind != "robot" and e.asset not in own]
-    events = scenario.causal_graph[:-1] or scenario.causal_graph
-    named: list[str] = []
-    for event in events:
-        hits = db.named_in(event, exclude=robot, skip=own)
-        hits += db.implied_by_words(event, exclude=robot, skip=own | {m.asset for m in hits})
-        named += [m.key for m in hits] + [m.asset for m in hits]
-    cause = [e.name for e in cast if e.asset in db.assets and any(
-        e.asset == n or db.answers_to(e.asset, n) for n in named)]
+    named = named_by_causes(db, scenario.causal_graph[:-1] or scenario.causal_graph, robot=robot, own=own)
+    cause = [e.name for e in cast if answers_to_any(db, e.asset, named)]
     if cause:
         return cause, [e.name for e in cast if e.name not in cause], "named by the cause's words"
     if graph_assets is not None:
@@ -151,4 +162,5 @@ def explains(causal: Causal | None, feasible: bool) -> bool:
     return causal is None or causal.status in ("caused", "not_checked")
 
 
-__all__ = ["NotCheckable", "ReferenceWorld", "but_for", "explains", "not_checked", "split_cast"]
+__all__ = ["NotCheckable", "ReferenceWorld", "answers_to_any", "but_for", "explains", "named_by_causes",
+           "not_checked", "split_cast"]

@@ -19,6 +19,7 @@ from collections.abc import Sequence
 from regen.assets.database import AssetDatabase
 from regen.core.graph import CausePath
 from regen.core.words import name_words
+from regen.verify.causal import answers_to_any, named_by_causes
 
 #: property -> (states that make a driver react on their own, the state that does not)
 CONTROLS: dict[str, tuple[frozenset[str], str]] = {
@@ -41,14 +42,10 @@ def _names_own_state(db: AssetDatabase, asset: str, prop: str, event: str, path:
 def quiet_context(path: CausePath, db: AssetDatabase, *, robot: Sequence[str] = ()) -> tuple[CausePath, list[str]]:
     """(``path`` with its context entities' reacting states made neutral, what was changed in words)."""
     causes = path.events[:-1] or path.events
-    named: set[str] = set()
-    for event in causes:
-        hits = db.named_in(event, exclude=robot)
-        hits += db.implied_by_words(event, exclude=robot, skip=frozenset(m.asset for m in hits))
-        named |= {m.key for m in hits} | {m.asset for m in hits}
+    named = named_by_causes(db, causes, robot=robot)
     entities, notes = [], []
     for pe in path.entities:
-        if pe.asset in named or any(db.answers_to(pe.asset, n) for n in named):
+        if answers_to_any(db, pe.asset, named):
             entities.append(pe)
             continue
         props = dict(pe.properties)

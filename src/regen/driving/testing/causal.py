@@ -194,7 +194,6 @@ class DrivingReferenceWorld:
             self.route = tuple(fr.point((x - fr.ox) * fr.ux + (y - fr.oy) * fr.uy, d0) for x, y in t.route)
             self.lanes = Lanes(tuple(fr.lane_d(k) - d0 for k in range(fr.lanes_same_direction) if k != t.ego_lane))
         self.cruise = max([t.speed0] + [s for _, s, _ in t.schedule])
-        self.runs = 0
 
     def run(self, removed: frozenset[str]) -> ReferenceRun:
         world = without(self.scenario, removed)
@@ -202,7 +201,6 @@ class DrivingReferenceWorld:
         prep = dataclasses.replace(prep, template=dataclasses.replace(prep.template, route=self.route))
         driver = ReferenceDriver(lanes=self.lanes)
         ep = loop.run_policy(prep, driver, step_timeout=None)
-        self.runs += 1
         if ep.trace is None:
             return ReferenceRun(removed=sorted(removed), shown=False, happened=False,
                                 summary=f"the run failed: {ep.failure}")
