@@ -22,7 +22,7 @@ from regen.pipeline.stages import run_path  # noqa: E402
 pytestmark = pytest.mark.slow
 
 SCENE = chain("stop_abruptly", "the truck in front brakes hard",
-              ("truck", {"behavior": ["drive_forward"], "start_location": ["ahead_same_lane"],
+              ("truck", {"behavior": ["brake_ahead"], "start_location": ["ahead_same_lane"],
                          "target_speed": ["moderate"]}),
               ("adult", {"behavior": ["walk_along"], "start_location": ["roadside_ahead"]}))
 
@@ -63,18 +63,18 @@ def test_an_addition_verifies_and_the_distractor_is_found_irrelevant(scene, tmp_
     assert "a cyclist rides ahead" in html and "adult1" in html
 
 
-def test_a_claim_that_the_cause_is_irrelevant_fails_and_an_unknown_addition_is_not_applied(scene, monkeypatch):
+def test_a_claim_that_the_cause_is_irrelevant_fails_and_an_unknown_addition_is_not_applied(scene, tmp_path,
+                                                                                           monkeypatch):
     answer = {"add": ["a tree grows"], "irrelevant": ["truck1"]}
-    res, _ = _augment(monkeypatch, scene, answer)
+    res, _ = _augment(monkeypatch, scene, answer, "--out", str(tmp_path / "aug"))
     assert res.exit_code == 0, res.output
-    run = scene.parent.parent
-    record = json.loads((run / "augment" / "01-truck-brakes-augment" / "augment.json").read_text())
+    record = json.loads((tmp_path / "aug" / "01-truck-brakes-augment" / "augment.json").read_text())
     (tree,) = record["additions"]
     assert tree["status"] == "not_applied" and not tree["holds"] and "name no asset" in tree["reason"]
     (truck,) = record["irrelevant"]
     assert not truck["holds"]  # without the truck nothing stops the ego
     # a hand-built scene has no run.json: the counterfactuals go beside augment.json (in a run: RUN/whatif)
-    assert Path(truck["folder"]).parent == run / "augment"
+    assert Path(truck["folder"]).parent == tmp_path / "aug"
     assert "claim fails" in res.output
 
 

@@ -165,7 +165,15 @@ def test_behavior_phrases_name_a_motion_only_the_asset_can_make_and_ambiguity_bi
     from regen.driving.assets import database as driving
 
     db = driving()
-    assert db.named_state("child", "behavior", "a child runs across the road") == ("cross_the_road", "runs across")
+    assert db.named_state("child", "behavior", "a child runs across the road")[0] == "cross_the_road"
+    # an adverb between the verb and 'across' does not hide the crossing
+    assert db.named_state("adult", "behavior", "an elderly person walks slowly across the road")[0] == "cross_the_road"
+    # a vehicle ahead that stops abruptly brakes in front of the ego; it is not parked there
+    assert db.named_state("truck", "behavior", "the truck ahead stops abruptly") == ("brake_ahead", "stops abruptly")
+    assert db.named_state("sedan", "behavior", "the car in front slams on its brakes")[0] == "brake_ahead"
+    assert db.named_state("bicycle", "behavior", "the cyclist ahead stops abruptly") is None  # not its motion
+    assert db.named_state("traffic_light", "light_state", "the traffic light malfunctions") == ("off", "malfunctions")
+    assert db.named_state("truck", "behavior", "a truck changes lanes into the ego's path")[0] == "change_lane"
     assert db.named_state("sedan", "behavior", "a car waits for a child crossing the road") is None  # the child's
     event = "a tow truck pulls over to help a broken-down car"  # two actors' motions in one event
     assert db.named_states("tow_truck", "behavior", event) == {"stationary": "broken down", "pull_over": "pulls over"}

@@ -177,3 +177,26 @@ def test_a_sensor_in_a_cause_is_never_given_a_state_that_works() -> None:
     values = {n.property: n.value for n in g.nodes.values() if n.kind == "property" and n.status == "accepted"}
     assert values["gnss_signal"] in ("noisy", "jammed")
     assert values["camera_view"] in ("glare", "occluded")
+
+
+def test_a_person_named_in_words_no_asset_carries_is_played_by_a_person_on_foot() -> None:
+    elderly = "an elderly man shuffles across the road"  # no alias says 'elderly' or 'man'
+    model = ScriptedModel(causes={STOP: [elderly]}, entities={elderly: ["debris"]}, part_of={"debris": False})
+    g = _expand("driving", model)
+    man = _node(g, "adult", "entity")
+    assert man.status == "accepted" and man.history[0].by == "database"
+    assert "names a person" in man.history[0].reason and "'elderly'" in man.history[0].reason
+    (path,) = g.paths()
+    assert [e.asset for e in path.entities] == ["adult"]
+    assert path.entities[0].properties.get("behavior") == ["cross_the_road"]  # 'across the road'
+    assert path.entities[0].properties.get("target_speed") == ["slow"]  # 'elderly', 'shuffles'
+
+
+def test_an_animal_the_database_lacks_makes_the_cause_unsimulatable_without_asking_the_model() -> None:
+    deer = "a deer jumps onto the road"
+    model = ScriptedModel(causes={STOP: [deer]}, entities={deer: ["debris"]})
+    g = _expand("driving", model)
+    ev = _node(g, deer)
+    assert ev.status == "unsimulatable" and ev.history[-1].by == "database"
+    assert "names an animal ('deer')" in ev.history[-1].reason and "has no animal" in ev.history[-1].reason
+    assert not g.paths() and "entity_edges" not in model.kinds  # no entity was asked for

@@ -29,7 +29,7 @@ FEASIBLE: dict[str, list[CausePath]] = {
               ("ambulance", {"behavior": ["drive_forward"], "siren": ["on"], "target_speed": ["fast"],
                              "start_location": ["behind the ego-vehicle on adjacent lane"]})),
         chain("stop_abruptly", "the car in front brakes hard",
-              ("sedan", {"behavior": ["drive_forward"], "start_location": ["ahead_same_lane"],
+              ("sedan", {"behavior": ["brake_ahead"], "start_location": ["ahead_same_lane"],
                          "target_speed": ["moderate"]})),
         chain("stop_abruptly", "a parked car opens its door",
               ("parked_car", {"door": ["opens"], "start_location": ["roadside_ahead"]})),
@@ -40,6 +40,11 @@ FEASIBLE: dict[str, list[CausePath]] = {
         chain("stop_abruptly", "a car drives the wrong way in the ego's lane",
               ("sedan", {"behavior": ["wrong_way"], "start_location": ["ahead_same_lane"],
                          "target_speed": ["moderate"]})),
+        chain("stop_abruptly", "the truck ahead stops abruptly", ("truck", {"behavior": ["brake_ahead"]})),
+        chain("stop_abruptly", "the traffic light at the junction malfunctions",
+              ("traffic_light", {"light_state": ["off"]})),
+        chain("stop_abruptly", "an elderly man walks slowly across the road",
+              ("adult", {"behavior": ["cross_the_road"], "target_speed": ["slow"]})),
     ],
     "slow_down": [
         chain("slow_down", "a slow truck is ahead", ("truck", {"behavior": ["drive_forward"],
@@ -56,6 +61,7 @@ FEASIBLE: dict[str, list[CausePath]] = {
               {"behavior": ["pull_over"], "start_location": ["ahead_same_lane"], "target_speed": ["slow"]})),
         chain("slow_down", "a person waits at the curb to hail a taxi", ("adult",
               {"behavior": ["wait_at_curb"], "start_location": ["roadside_ahead"]})),
+        chain("slow_down", "the car ahead brakes suddenly", ("sedan", {"behavior": ["brake_ahead"]})),
     ],
     "drive_forward": [
         chain("drive_forward", "the traffic light turns green",

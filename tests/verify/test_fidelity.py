@@ -50,7 +50,7 @@ def test_a_state_the_cause_names_must_be_the_state_shown() -> None:
 
 def test_a_generic_name_accepts_a_kind_of_it_but_not_another_thing() -> None:
     police = chain("stop_abruptly", "a car brakes in front",
-                   ("police_car", {"behavior": ["drive_forward"], "start_location": ["ahead_same_lane"]}))
+                   ("police_car", {"behavior": ["brake_ahead"], "start_location": ["ahead_same_lane"]}))
     assert _fidelity(police).status == "faithful"  # a police car is a car
     debris = chain("stop_abruptly", "a car brakes in front",
                    ("debris", {"start_location": ["ahead_same_lane"]}))
@@ -237,3 +237,22 @@ def test_a_truck_standing_at_the_roadside_must_stand_still() -> None:
     assert _fidelity(still).status == "faithful"
     # a parked car that pulls out is not held still by the word 'parked'
     assert DB.named_states("sedan", "behavior", "the parked car ahead pulls out into the lane") == {}
+
+
+def test_a_vehicle_named_as_stopping_abruptly_must_brake_in_front_not_stand_or_change_lane() -> None:
+    """Issue 35: 'the truck ahead stops abruptly' was grounded changing lanes (or parked ahead)
+    and called faithful because only the entity was checked."""
+    cause = "the truck ahead stops abruptly"
+    for prim, loc in (("change_lane", "ahead_adjacent_lane"), ("stationary", "ahead_same_lane")):
+        f = _fidelity(chain("stop_abruptly", cause, ("truck", {"behavior": [prim], "start_location": [loc]})))
+        assert f.status == "unfaithful" and "behavior = brake_ahead" in f.reason and prim in f.reason, f.reason
+    braking = chain("stop_abruptly", cause, ("truck", {"behavior": ["brake_ahead"]}))
+    assert _fidelity(braking).status == "faithful"
+
+
+def test_a_light_named_as_malfunctioning_must_be_dark() -> None:
+    cause = "the traffic light at the junction malfunctions"
+    cycling = chain("stop_abruptly", cause, ("traffic_light", {"light_state": ["turns_red"]}))
+    f = _fidelity(cycling)
+    assert f.status == "unfaithful" and "light_state = off" in f.reason
+    assert _fidelity(chain("stop_abruptly", cause, ("traffic_light", {"light_state": ["off"]}))).status == "faithful"

@@ -36,9 +36,9 @@ class AssetMatch(Model):
 
     asset: str
     similarity: float  # 0-1, see :func:`similarity`
-    via: Literal["id", "alias", "description", "state", "motion", "paraphrase", "words"]
+    via: Literal["id", "alias", "description", "state", "motion", "paraphrase", "words", "kind"]
     key: str  # the id, alias or description phrase that matched
-    phrase: str = ""  # for a paraphrase: the words of the text that matched ``key``
+    phrase: str = ""  # for a paraphrase: the words of the text that matched ``key``; for a kind: the kind
 
     def describe(self, name: str) -> str:
         what = "" if self.via == "id" else f" (by its {self.via} '{self.key}')"
@@ -208,7 +208,8 @@ class Naming:
         """Asset -> why, for every asset ``text`` names: by an id, alias or description phrase
         (:meth:`named_in`, the words of ``robot`` excluded), by a state only it has
         (:meth:`implied_by_states`), by words that together imply it (:meth:`implied_by_words`);
-        where none of these names one, by a motion only some assets make
+        where none of these names one, by a person or animal named in words no asset carries
+        (:meth:`implied_by_kind`), else by a motion only some assets make
         (:meth:`implied_by_motion`) or, with an ``encoder``, by a close paraphrase
         (:meth:`paraphrased_in`); where no name does, by a state several share
         (:meth:`implied_by_shared_states`). ``own``: assets never returned (a task's own object)."""
@@ -225,6 +226,10 @@ class Naming:
             for m in self.paraphrased_in(text, encoder, exclude=robot, skip=own):
                 out.setdefault(m.asset, f"the event names it by a close paraphrase: '{m.phrase}' ~ "
                                         f"'{m.key}' (cosine {m.similarity:.2f} >= {PARAPHRASE_THRESHOLD})")
+        if not out:  # 'an elderly man', 'a senior citizen': a person, whom no alias names
+            for m in self.implied_by_kind(text, robot=robot, skip=own):
+                out[m.asset] = (f"the event names a {m.phrase} in words no asset carries ('{m.key}'); the "
+                                "first asset of that kind plays it")
         if not out:
             for m in self.implied_by_motion(text, robot=robot, skip=own):
                 out[m.asset] = (f"the event names a motion and no actor: {m.key}; the first asset "
@@ -234,6 +239,25 @@ class Naming:
                 out.setdefault(m.asset, f"the event names a state several assets share and no actor that "
                                         f"holds it: {m.key}; the first asset of the database that holds it plays it")
         return out
+
+    def implied_by_kind(self, text: str, *, robot: str | Sequence[str] = "",
+                        skip: frozenset[str] = frozenset()) -> list[AssetMatch]:
+        """For each person or animal ``text`` names in words no asset carries ('an elderly man',
+        'a senior citizen'), the first asset of that kind that is no vehicle (a person on foot is
+        an adult, not a car's driver)."""
+        vehicles = set(self.categories.get("vehicles", ()))
+        out = []
+        for kind, word in self.beings_in(text, exclude=robot).items():
+            able = [a for a in self.entities() if a not in skip and a not in vehicles and kind in self.kinds_of(a)]
+            if able:
+                out.append(AssetMatch(asset=able[0], similarity=1.0, via="kind", key=word, phrase=kind))
+        return out
+
+    def kinds_lacking(self, text: str, *, robot: str | Sequence[str] = "") -> dict[str, str]:
+        """Kind -> word, for each person or animal ``text`` names that no asset of the database is
+        (a deer on a road whose database has no animal): nothing can show it."""
+        return {k: w for k, w in self.beings_in(text, exclude=robot).items()
+                if not any(k in self.kinds_of(a) for a in self.entities())}
 
     def implied_by_shared_states(self, text: str, *, robot: str | Sequence[str] = "",
                                  skip: frozenset[str] = frozenset(),

@@ -218,6 +218,8 @@ class DrivingBackend(DomainBackend):
                 for x in here:
                     by_speeds.setdefault(solvable_speeds(template, asset, b, x, tuple(speeds), size, props),
                                          []).append(x)
+            if len(by_speeds) == 1:  # one group of starts: its speeds only (a car braking ahead is no slow one)
+                allowed["target_speed"] = list(next(iter(by_speeds)))
             out[b] = (allowed if len(by_speeds) < 2 else
                       [{**allowed, "start_location": xs, "target_speed": list(sp)} for sp, xs in by_speeds.items()])
         return ("behavior", out) if out else None

@@ -257,6 +257,8 @@ def select_entities(llm: LLM, db: AssetDatabase, domain: Domain, chain: list[str
                     behavior: Behavior | None = None) -> Judged:
     """Entities of the database directly related to the event ``chain[0]``.
 
+    An event that names a person or an animal of a kind no asset is (a deer where the database
+    has no animal) has no entity, unasked: the event is not simulatable, said so.
     The assets the event's words name (:func:`named_entities`) are taken whatever the model
     answers, first, as decided by the database; an asset only the model chose is rejected when
     it is of the same category as one the words name (it would play the same part again), and
@@ -266,6 +268,11 @@ def select_entities(llm: LLM, db: AssetDatabase, domain: Domain, chain: list[str
     """
     domain = domain_view(domain)
     own = domain.own_objects(behavior)
+    lacking = db.kinds_lacking(chain[0], robot=domain.robot_names)
+    if lacking:  # a deer where the database has no animal: nothing can show it, no model asked
+        return Judged(call_id="", unknown={w: f"the event names {'an' if k[0] in 'aeiou' else 'a'} {k} ('{w}') and "
+                                           f"the {db.name} asset database has no {k}: nothing can show it"
+                                           for k, w in lacking.items()})
     options = [a for a in db.entities() if a not in own]
     prompt = render_prompt("entity_edges", domain, chain=chain, source=chain[0],
                            entities=[(a, db.assets[a].description) for a in options])

@@ -266,12 +266,15 @@ class Expander:
             if not chosen:
                 ev.status = "unsimulatable"
                 why = "no entity of the asset database can represent this event"
-                if judged.unknown:
+                if judged.unknown and not judged.call_id:  # decided before any model call
+                    why += f": {'; '.join(judged.unknown.values())}"
+                elif judged.unknown:
                     why += f" (the model asked for: {', '.join(judged.unknown)})"
                 if judged.rejected:
                     why += f" (rejected: {'; '.join(judged.rejected.values())})"
-                ev.history = ev.history + [Decision(action="marked_unsimulatable", by="model",
-                                                    call_id=judged.call_id, reason=why)]
+                ev.history = ev.history + [Decision(action="marked_unsimulatable",
+                                                    by="model" if judged.call_id else "database",
+                                                    call_id=judged.call_id or None, reason=why)]
         self._notify(graph, "entities")
 
     # --- phase 3: properties ----------------------------------------------------------------

@@ -65,3 +65,17 @@ def test_a_lead_car_ahead_of_an_ego_that_stops_is_offered_no_speed_the_solver_ca
             except ValueError:
                 pass
     assert allowed == set(speeds["ahead_same_lane"])
+
+
+def test_a_motion_from_one_start_is_offered_only_the_speeds_the_solver_can_place() -> None:
+    """The truck that 'stops abruptly' ahead of an ego at 10 m/s was chosen slow by the model:
+    unsatisfiable. One start place is one group: its solvable speeds only."""
+    backend = domains.make("driving")
+
+    def speeds(ego: str, asset: str, motion: str) -> list[str]:
+        _, choices = backend.property_choices(asset, Behavior(text="x", domain="driving",
+                                                               params={"ego_template": ego}))
+        return choices[motion]["target_speed"]
+
+    assert speeds("stop_abruptly", "truck", "brake_ahead") == ["moderate", "fast"]
+    assert speeds("slow_down", "sedan", "cut_in") == ["fast"]  # it overtakes an ego at 12 m/s

@@ -182,10 +182,11 @@ def test_locations_the_map_cannot_host_are_not_offered():
     assert sc.entity("sedan1").behavior == "drive_forward"  # the rule-based role
 
 
-def test_infeasible_model_roles_fall_back_to_feasible_rule_roles():
-    # a slow lead that must brake ahead of the ego has no placement; the path leaves the speed open
+def test_a_model_speed_class_without_a_placement_is_refit_and_said_so():
+    # a slow lead that must brake ahead of the ego has no placement; the path leaves the speed open,
+    # so the nearest class that fits (moderate) replaces the model's, recorded as a fallback
     lead = chain("stop_abruptly", "the car in front brakes hard", ("sedan", {
-        "behavior": ["drive_forward"], "start_location": ["ahead_same_lane"]}))
+        "behavior": ["brake_ahead"], "start_location": ["ahead_same_lane"]}))
     roles = {"narrative": "The car in front brakes hard.", "sedan1_speed": "slow"}
     answer = fsm(_state(1, "sedan1", "leading", "in_front(sedan1, ego, distance=60)"),
                  _state(2, "ego", "stopped", "stopped(ego)"))
@@ -193,9 +194,9 @@ def test_infeasible_model_roles_fall_back_to_feasible_rule_roles():
     sc = ground_with_model(lead, llm)
     assert sc.solver.status in ("optimal", "feasible")
     assert sc.entity("sedan1").behavior_params["speed_class"] == "moderate"
-    assert sc.world["grounder"] == "model+rules" and sc.world["rule_parts"] == "roles"
-    assert "no placement" in sc.world["grounding_notes"]
-    assert any("no placement" in f for f in sc.fallbacks)
+    assert sc.world["grounder"] == "model"  # the model's roles, one speed class refit
+    (note,) = [f for f in sc.fallbacks if "speed class" in f]
+    assert "sedan1 slow -> moderate" in note and "drives at least as fast as the ego" in note
 
 
 def test_a_state_whose_calls_contradict_each_other_is_reasked():

@@ -60,3 +60,28 @@ def test_no_actor_starts_on_an_arm_the_map_lacks():
     assert sc.world["map"] == "four_way" and sc.solver.status in ("optimal", "feasible")
     g = geometry("t_junction")
     assert "north" not in g.arms
+
+
+def _path(template: str, cause: str, asset: str, **properties: str):
+    from regen.core.behavior import Behavior
+    from regen.core.graph import CausePath, PathEntity
+
+    return CausePath(behavior=Behavior(text=f"the ego-vehicle does {template}", domain="driving",
+                                       params={"ego_template": template}),
+                     events=[cause, f"the ego-vehicle does {template}"],
+                     entities=[PathEntity(asset=asset, event=cause, properties={k: [v] for k, v in properties.items()})])
+
+
+def test_a_speed_class_the_graph_left_open_is_changed_to_one_that_fits_and_said_so():
+    from regen.driving.grounding.rules import ground_rule_based
+
+    # a car cutting in in front of an ego at 12 m/s must be faster than it: 'moderate' is not
+    sc = ground_rule_based(_path("slow_down", "a car cuts in front of the ego", "sedan", behavior="cut_in"))
+    assert sc.solver.status in ("optimal", "feasible")
+    assert sc.entity("sedan1").behavior_params["speed_class"] == "fast"
+    assert sc.parameters["sedan1"]["v"] >= 14.0
+    (note,) = [f for f in sc.fallbacks if "speed class" in f]
+    assert "sedan1 moderate -> fast" in note and "faster than the ego" in note
+    # the graph's own speed is never changed: the placement stays infeasible and says why
+    fixed = ground_rule_based(_path("slow_down", "a car cuts in", "sedan", behavior="cut_in", target_speed="moderate"))
+    assert fixed.solver.status == "infeasible" and not any("speed class" in f for f in fixed.fallbacks)

@@ -321,3 +321,15 @@ def test_reacting_to_names_a_hazard_and_what_a_lane_change_goes_around():
     changer = ReferenceDriver(LEFT)
     changer(_obs(_debris(name="box"), speed=CHANGE_SPEED))
     assert changer.target == 3.5 and changer.reacting_to == [(0.0, "box")]
+
+
+def test_stops_at_a_dark_light_then_goes_on_after_standing_there():
+    driver = ReferenceDriver()
+    dark = _light("off", x=12.0)  # the stop line 2 m before it, 7.7 m from its front bumper
+    assert driver(_obs(dark)).acceleration < -3.0  # an all-way stop: brakes for it
+    assert _accel(_light("green", x=12.0)) == pytest.approx(0.0, abs=1e-9)  # a working green: no
+    for k in range(19):  # stands 1.9 s at the line: still held
+        assert driver(_obs(dark, x=7.0, speed=0.0, t=k / 10)).acceleration < 0.0
+    assert driver(_obs(dark, x=7.0, speed=0.0, t=2.0)).acceleration > 0.5  # 2 s: it moves off
+    assert driver(_obs(dark, x=8.0, speed=2.0, t=2.5)).acceleration > 0.5  # and keeps going
+    assert driver.reacting_to[0] == (0.0, "light")

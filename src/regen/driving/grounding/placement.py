@@ -9,13 +9,14 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from regen.core.scenario import SolverReport
-from regen.driving.primitives import for_actor
+from regen.driving.primitives import find, for_actor
 from regen.driving.primitives._attention import couple
-from regen.driving.world.actors import ActorSpec
+from regen.driving.primitives.base import SPEED_CLASSES
+from regen.driving.world.actors import ActorSpec, RoleChoice
 from regen.driving.world.egos import EgoTemplate
 from regen.driving.world.placement import DM, PlacementModel
 
@@ -76,4 +77,30 @@ def solve(ego: EgoTemplate, actors: list[ActorSpec], *, seed: int = 0, time_limi
     return Solution(report, solved_params(M, out.value, actors))
 
 
-__all__ = ["SOLVED", "ActorSpec", "Solution", "placement_model", "solve", "solved_params"]
+
+
+def refit_speeds(template: EgoTemplate, roles: list[RoleChoice], sol: Solution,
+                 spec_of: Callable[[RoleChoice], ActorSpec], *, seed: int = 0
+                 ) -> tuple[list[RoleChoice], Solution, list[str]]:
+    """An infeasible placement where a role in conflict moves at a speed class the graph left
+    open: the nearest other class that makes it feasible (a car that cuts in in front of an ego
+    driving 12 m/s must be fast), one role at a time, said in a fallback note; else unchanged."""
+    for i, r in enumerate(roles):
+        prim = find(r.primitive) if r.primitive else None
+        if "target_speed" in r.fixed or prim is None or not prim.moves:
+            continue
+        why = "; ".join(c for c in sol.report.conflicts if c.startswith(f"{r.name}:"))
+        if not why:
+            continue
+        here = SPEED_CLASSES.index(r.speed_class)
+        for other in sorted((c for c in SPEED_CLASSES if c != r.speed_class),
+                            key=lambda c: abs(SPEED_CLASSES.index(c) - here)):
+            trial = [*roles[:i], replace(r, speed_class=other), *roles[i + 1:]]
+            again = solve(template, [spec_of(t) for t in trial], seed=seed)
+            if again.report.status != "infeasible":
+                return trial, again, [f"speed class changed to fit the placement: {r.name} {r.speed_class} -> "
+                                      f"{other} (its speed was not the graph's; {why})"]
+    return roles, sol, []
+
+
+__all__ = ["refit_speeds", "SOLVED", "ActorSpec", "Solution", "placement_model", "solve", "solved_params"]

@@ -22,7 +22,7 @@ from regen.core.graph import CausePath
 from regen.core.scenario import FSM, Entity, Scenario
 from regen.driving.assets import database as driving_database
 from regen.driving.grounding.fsm_rules import CAUSES_ADDED, rule_based_fsm, with_cause_states
-from regen.driving.grounding.placement import solve
+from regen.driving.grounding.placement import refit_speeds, solve
 from regen.driving.primitives import find, for_actor, get, is_state_only
 from regen.driving.primitives.base import SPEED_CLASSES, Placed
 from regen.driving.world.actors import PARKED_ASSETS, PEDESTRIAN_ASSETS, ActorSpec, RoleChoice
@@ -382,6 +382,9 @@ def build_scenario(path: CausePath, roles: list[RoleChoice], *, narrative: str, 
         again = solve(wider, [_actor(r, db) for r in roles], seed=seed)
         if again.report.status != "infeasible":
             template, sol = wider, again
+    refit: list[str] = []
+    if sol.report.status == "infeasible":
+        roles, sol, refit = refit_speeds(template, roles, sol, lambda r: _actor(r, db), seed=seed)
     entities = [Entity(name="ego", asset="ego", kind="robot", behavior=template.id,
                        behavior_params={"text": path.behavior.text})]
     for r in roles:
@@ -405,7 +408,7 @@ def build_scenario(path: CausePath, roles: list[RoleChoice], *, narrative: str, 
     return Scenario(id=scenario_id(path, seed), domain="driving", behavior=path.behavior,
                     causal_graph=list(path.events), narrative=narrative, entities=entities,
                     fsm=fsm, parameters=params, world=world, solver=sol.report,
-                    fallbacks=[CAUSES_ADDED + "; ".join(added)] if added else [])
+                    fallbacks=([CAUSES_ADDED + "; ".join(added)] if added else []) + refit)
 
 
 def default_narrative(path: CausePath) -> str:

@@ -13,13 +13,13 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from regen.driving.primitives import _lanes
+from regen.driving.primitives import _lanes, _lead
 from regen.driving.primitives.base import Placed, RuleStates, VehiclePrimitive, pred
 from regen.driving.world.actors import ActorSpec, RoleChoice
 from regen.driving.world.egos import EgoTemplate
 from regen.driving.world.placement import DM, PlacementModel
 from regen.driving.world.plan import ActorPlan
-from regen.driving.world.triggers import Trigger, approach, ego_slower
+from regen.driving.world.triggers import Trigger, ego_slower
 
 REACTION_TIME = {"attentive": 1.0, "distracted": 2.2}  # [s] before a follower brakes, by driver_state
 
@@ -31,19 +31,7 @@ def _reaction(a: RoleChoice) -> float:
 def _leads(m: PlacementModel, a: ActorSpec, s: Any, v: Any, s_te: Any) -> None:
     e, half, te = m.ego, m.half(a), m.ego.t_event
     if e.stops:  # it brakes first and comes to rest ahead of where the ego stops
-        t = m.trigger(a)
-        m.at_least(a, f"brakes 0.3 to 1.5 s before the ego (t={te:.1f} s)", t, te - 1.5)
-        m.at_most(a, "brakes at least 0.3 s before the ego", t, te - 0.3)
-        vt = m.product(a.name, "vt", v, t, 10 ** 7)
-        sq = m.product(a.name, "v2", v, v, 10 ** 6)
-        stop = m.m.NewIntVar(-100000, 100000, f"{a.name}.stop")  # [dm] where it comes to rest
-        m.m.Add(1360 * stop >= 1360 * s + 136 * vt + 10 * sq + 140 * v - 1360)
-        m.m.Add(1360 * stop <= 1360 * s + 136 * vt + 10 * sq + 140 * v + 1360)
-        m.at_least(a, "stops ahead of where the ego stops, with a gap of 1.5 to 10 m", stop,
-                   e.s_end + half + 1.5)
-        m.at_most(a, "stops at most 10 m ahead of the ego's stop", stop, e.s_end + half + 10.0)
-        m.at_least(a, f"drives at least as fast as the ego (v >= {e.speed_event:.0f} m/s)", v, e.speed_event)
-        m.at_least(a, "starts ahead of the ego", s, m.ego_s(0.0) + half + 3.0)
+        _lead.brakes_to_a_stop(m, a, s, v)
     elif e.speed_event == 0.0:  # the ego waits behind it, then both go
         t = m.trigger(a)
         m.at_least(a, "departs 0.5 to 2 s before the ego", t, te - 2.0)
@@ -97,10 +85,7 @@ def _oncoming(m: PlacementModel, a: ActorSpec, s: Any, v: Any, s_te: Any) -> Non
 def _leading_states(a: str, t: EgoTemplate) -> RuleStates:
     e = "ego"
     if t.stops:  # it brakes in front of the ego
-        return RuleStates(initial=("leading", [pred("in_front", a, e, distance=60.0), pred("moving", a)]),
-                          cause=(("braking", [pred("braking", a, min_decel=3.0),
-                                              pred("in_front", a, e, distance=60.0)]),),
-                          final=("stopped_ahead", [pred("stopped", a), pred("ahead_of", a, e)]))
+        return _lead.braking_states(a, t)
     if t.speed_event == 0.0:  # it waits in front of the ego, then departs
         return RuleStates(
             cause=(("waiting_ahead", [pred("stopped", a), pred("in_front", a, e, distance=20.0)]),
@@ -151,11 +136,7 @@ def _no_trigger(placed: Placed) -> Trigger | None:
 def _leading_trigger(placed: Placed) -> Trigger | None:
     """It brakes as the ego comes near where it brakes in the template, or departs at its time
     before the waiting ego (:func:`~regen.driving.world.triggers.approach` makes that a time trigger)."""
-    ego, p = placed.ego, placed.params
-    if "t" not in p:
-        return None
-    s_brake = p.get("s", 0.0) + p.get("v", 0.0) * p["t"]
-    return approach(ego, ego.frame.point(s_brake, placed.lateral), p["t"])
+    return _lead.brake_trigger(placed)
 
 
 def _following_trigger(placed: Placed) -> Trigger | None:

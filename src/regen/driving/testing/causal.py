@@ -97,7 +97,17 @@ def _onset_before(speed: np.ndarray, k: int, dt: float, *, rising: bool = False)
 def shows(trace: Trace, reaction: str, *, frame, lane_width: float, cruise: float
           ) -> tuple[bool, int | None, str]:
     """(whether the reference ego shows ``reaction``, the step its reaction started, what it did
-    in words)."""
+    in words: where it does not, and changes lane instead, that too)."""
+    shown, onset, words = _shows(trace, reaction, frame=frame, lane_width=lane_width, cruise=cruise)
+    if not shown and reaction != "changes lane":
+        moved, _, how = _shows(trace, "changes lane", frame=frame, lane_width=lane_width, cruise=cruise)
+        if moved:  # a slow truck it overtakes rather than slowing behind it
+            words += f"; it {how.split(' (')[0]} instead"
+    return shown, onset, words
+
+
+def _shows(trace: Trace, reaction: str, *, frame, lane_width: float, cruise: float
+           ) -> tuple[bool, int | None, str]:
     v = np.asarray(trace.actors["ego"].speed, dtype=float)
     t = trace.times
     if reaction == "stops":

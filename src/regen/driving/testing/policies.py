@@ -217,13 +217,14 @@ def obstacles_in_path(obs: Observation, *, horizon: float = 0.0,
     return sorted(out, key=lambda o: o.gap)
 
 
-def red_lights_ahead(obs: Observation, *, reach: float = 12.0, stop_line: float = 2.0) -> list[Obstacle]:
-    """Red or yellow lights ahead within ``reach`` [m] of the ego's path, as stop lines (lights
-    carry no facing direction in this toolkit: every light near the path applies)."""
+def red_lights_ahead(obs: Observation, *, reach: float = 12.0, stop_line: float = 2.0,
+                     states: tuple[str, ...] = ("red", "yellow")) -> list[Obstacle]:
+    """Red or yellow lights (``states``) ahead within ``reach`` [m] of the ego's path, as stop
+    lines (lights carry no facing direction in this toolkit: every light near the path applies)."""
     ego = obs.ego
     out = []
     for a in obs.actors:
-        if a.category != "light" or a.light_state not in ("red", "yellow"):
+        if a.category != "light" or a.light_state not in states:
             continue
         s, lat, _, _ = path_frame(ego, a.x, a.y)
         gap = s - stop_line - ego.length / 2
@@ -232,6 +233,11 @@ def red_lights_ahead(obs: Observation, *, reach: float = 12.0, stop_line: float 
                 continue  # too close to stop comfortably on yellow: go through
             out.append(Obstacle(max(gap, 0.0), 0.0, a.name))
     return out
+
+
+def dark_lights_ahead(obs: Observation, *, reach: float = 12.0, stop_line: float = 2.0) -> list[Obstacle]:
+    """Dark lights (``light_state`` off: out of order) ahead, as stop lines like red ones."""
+    return red_lights_ahead(obs, reach=reach, stop_line=stop_line, states=("off",))
 
 
 def sirens_closing(obs: Observation, *, reach: float = 40.0, stop_in: float = 12.0) -> list[Obstacle]:
@@ -330,4 +336,4 @@ load_policy.__doc__ = (load_policy.__doc__ or "").format(builtins=", ".join(BUIL
 
 __all__ = ["AEB", "BUILTIN", "IDM", "Action", "ActorState", "EgoState", "Observation", "Obstacle",
            "Policy", "as_action", "constant_speed", "load_policy", "obstacles_in_path",
-           "path_frame", "red_lights_ahead", "route_curvature"]
+           "dark_lights_ahead", "path_frame", "red_lights_ahead", "route_curvature"]

@@ -14,7 +14,9 @@ exists:
   actor whose motion brings it into the path within 3 s (a pedestrian, cyclist or car crossing),
   stopped where it will enter; a pedestrian within 1.5 m beside the path (it waits until the
   pedestrian has stepped clear); a red light, or a yellow one it can stop for at 3 m/s^2 (a stop
-  line 2 m before the light); an emergency vehicle with its siren on coming closer within 40 m
+  line 2 m before the light); a dark light (``light_state`` off: out of order), treated as an
+  all-way stop as most traffic codes require (a stop line 2 m before it, kept until it has stood
+  there ``dark_wait`` = 2 s); an emergency vehicle with its siren on coming closer within 40 m
   (a stop line 12 m ahead of where it noticed it, kept while it comes closer: it stops and lets
   it pass); a vehicle standing in its lane (a police
   checkpoint, a broken-down car).
@@ -55,6 +57,7 @@ from regen.driving.testing.policies import (
     EgoState,
     Observation,
     Obstacle,
+    dark_lights_ahead,
     obstacles_in_path,
     path_frame,
     red_lights_ahead,
@@ -105,6 +108,7 @@ class ReferenceDriver:
     braked_memory: float = 3.0  # [s] ... and counts as traffic, not as slow, this long after
     start_hold: float = 30.0  # [m] standing, it waits for what stands this near ahead to clear
     siren_stop_in: float = 12.0  # [m] ahead of where it notices a siren closing in, it stops
+    dark_wait: float = 2.0  # [s] it stands at a dark light (out of order) before it goes on
 
     def __post_init__(self) -> None:
         self.reset()
@@ -115,6 +119,8 @@ class ReferenceDriver:
         self._yield_at: dict[str, tuple[float, float]] = {}  # siren vehicle -> where it stops [m]
         self._speeds: dict[str, tuple[float, float]] = {}  # vehicle -> (t [s], speed [m/s]) last seen
         self._braked_at: dict[str, float] = {}  # vehicle -> when it last slowed [s]
+        self._dark_since: dict[str, float] = {}  # dark light -> since when it stands at it [s]
+        self._dark_done: set[str] = set()  # dark lights it has stopped at and may pass
         #: per step, (t [s], what it reacted to: its leader, a hazard it slowed for, or None)
         self.reacting_to: list[tuple[float, str | None]] = []
 
@@ -123,7 +129,22 @@ class ReferenceDriver:
     def _leaders(self, obs: Observation) -> list[Obstacle]:
         m = self.idm
         return (obstacles_in_path(obs, horizon=m.yield_horizon, pedestrian_margin=m.pedestrian_margin)
-                + red_lights_ahead(obs) + self._give_way(obs))
+                + red_lights_ahead(obs) + self._give_way(obs) + self._dark_lights(obs))
+
+    def _dark_lights(self, obs: Observation) -> list[Obstacle]:
+        """Stop lines at dark lights ahead (an all-way stop) it has not yet stood at for
+        ``dark_wait``; standing within 3 m of one starts that wait."""
+        out = []
+        for stop in dark_lights_ahead(obs):
+            if stop.name in self._dark_done:
+                continue
+            if obs.ego.speed < 0.3 and stop.gap < 3.0:
+                since = self._dark_since.setdefault(stop.name, obs.t)
+                if obs.t - since >= self.dark_wait:
+                    self._dark_done.add(stop.name)
+                    continue
+            out.append(stop)
+        return out
 
     def _give_way(self, obs: Observation) -> list[Obstacle]:
         """Stop lines for emergency vehicles with their siren on coming closer: fixed where it
