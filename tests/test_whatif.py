@@ -31,10 +31,15 @@ LIGHTS_ON = chain("stop_abruptly", "the front car stops with its brake lights on
 
 @pytest.fixture(scope="module")
 def front_car(tmp_path_factory) -> Path:
-    """RUN/scenarios/01-front-car: the front car stops with its brake lights on (verified)."""
+    """RUN/scenarios/01-front-car of a run (RUN/run.json): the front car stops with its brake
+    lights on (verified)."""
+    from regen.runfolder import RunFolder, RunManifest, RunSettings
+
     folder = tmp_path_factory.mktemp("run") / "scenarios" / "01-front-car"
     out = run_path(LIGHTS_ON, folder, pictures=True)
     assert out.verdict.feasible, out.verdict.reason
+    RunFolder(folder.parent.parent).write_manifest(RunManifest(
+        behavior=LIGHTS_ON.behavior, settings=RunSettings(llm="none"), scenarios=[folder.name], status="done"))
     return folder
 
 
@@ -118,7 +123,7 @@ def test_moving_the_front_car_to_the_next_lane(front_car, tmp_path):
 def test_adding_a_cause_grounds_its_entity(tmp_path):
     folder = tmp_path / "run" / "scenarios" / "01-slow-truck"
     assert run_path(FEASIBLE["slow_down"][0], folder, pictures=False).verdict.feasible
-    res = _whatif(folder, "--add", "a cyclist rides ahead", "--no-pictures")
+    res = _whatif(folder, "--add", "a cyclist rides ahead", "--no-pictures", "--out", str(tmp_path / "wi"))
     assert res.exit_code == 0, res.output
     dest, record = _record(res)
     path = json.loads((dest / "path.json").read_text())
@@ -213,7 +218,7 @@ def test_a_manipulation_context_removed_leaves_the_task_unexplained(tmp_path):
                     entities=[PathEntity(asset="pet", event="the pet wants to go out")])
     folder = tmp_path / "run" / "scenarios" / "01-pet"
     assert run_path(pet, folder, pictures=False).verdict.feasible
-    res = _whatif(folder, "--remove", "pet1", "--no-pictures")
+    res = _whatif(folder, "--remove", "pet1", "--no-pictures", "--out", str(tmp_path / "wi"))
     assert res.exit_code == 0, res.output
     _, record = _record(res)
     assert record["original_explained"] and not record["explained"] and record["status"] == "unfaithful"

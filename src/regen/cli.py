@@ -22,6 +22,8 @@ from rich.table import Table
 
 from regen import domains
 from regen.errors import RegenError
+from regen.pipeline.terminal import shown
+from regen.promises.secrets import RedactingFilter, redact
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -45,14 +47,6 @@ def _defaults():
 _LIMITS, _SETTINGS = _defaults()  # the one place for defaults (regen.expand.Limits) seen by the CLI
 
 
-def shown(value: Any) -> str:
-    """Text from a file, a model or an error, safe to print: unsafe characters dropped, rich
-    markup escaped (a name like 'box [/]' prints as written)."""
-    from regen.core.text import clean
-
-    return escape(" ".join(clean(str(value)).split("\r")))
-
-
 def friendly(fn: F) -> F:
     """Show RegenError as a one-line message and exit with its code."""
 
@@ -61,7 +55,7 @@ def friendly(fn: F) -> F:
         try:
             return fn(*args, **kwargs)
         except RegenError as exc:
-            one_line = re.sub(r"\s*\n\s*", " ", str(exc)).strip()
+            one_line = re.sub(r"\s*\n\s*", " ", redact(str(exc), credentials=False)).strip()
             err_console.print(f"[bold red]error:[/] {shown(one_line)}")
             raise typer.Exit(exc.exit_code) from None
         except OSError as exc:  # a full disk or a read-only file system anywhere: no traceback
@@ -79,6 +73,9 @@ def friendly(fn: F) -> F:
 def _root(verbose: bool = typer.Option(False, "--verbose", "-v", help="Log details to stderr.")) -> None:
     logging.basicConfig(level=logging.INFO if verbose else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
+    for handler in logging.getLogger().handlers:  # no log line carries a key (regen.promises.secrets)
+        if not any(isinstance(f, RedactingFilter) for f in handler.filters):
+            handler.addFilter(RedactingFilter())
     import warnings
 
     # Scenic warns on import that it cannot own sys.excepthook; we format errors ourselves
@@ -216,10 +213,11 @@ def expand_cmd(
     from regen.core.behavior import make_behavior
     from regen.expand import Limits
     from regen.expand.run import run_expand
-    from regen.runfolder import out_folder
+    from regen.promises.folders import out_folder, output_folder
 
     out_dir = out_folder(out)
     b = make_behavior(behavior, domain)
+    output_folder(out_dir, give="a folder for graph.json, graph.png and graph.html")
     status = {"stage": "events", "text": ""}
     spinner = Spinner("dots", text="starting")
     client = None
@@ -247,16 +245,16 @@ def expand_cmd(
                   f"{counts.get('event:rejected', 0)} rejected, "
                   f"{counts.get('event:unsimulatable', 0)} not simulatable; "
                   f"{counts.get('entity:accepted', 0)} entities, {counts.get('property:accepted', 0)} property values")
-    console.print(f"stopped: {g.stop_reason}")
+    console.print(f"stopped: {shown(g.stop_reason)}")
     console.print(f"{len(paths)} simulatable cause chain(s):")
     for p in paths:
-        console.print("  - " + escape(" -> ".join(p.events)))
+        console.print("  - " + " -> ".join(shown(e) for e in p.events))
     if not paths:
         err_console.print("[yellow]no simulatable cause chain: try --depth, --prior, --candidate or a "
                           "stronger model (--llm openai:<model>)[/]")
     console.print(f"model use: {client.stats.summary()}")
     for name, path in res.files.items():
-        console.print(f"{name}: {path}")
+        console.print(f"{shown(name)}: {shown(path)}")
 
 
 runs_app = typer.Typer(no_args_is_help=True, help="List and show run folders.")
@@ -297,7 +295,8 @@ def generate_cmd(
     from regen.errors import ConfigError
     from regen.pipeline import generate
     from regen.progress import make_progress
-    from regen.runfolder import RunSettings, out_folder
+    from regen.promises.folders import out_folder
+    from regen.runfolder import RunSettings
 
     out_dir = out_folder(out)
     if log not in ("rich", "quiet", "jsonl"):
@@ -316,7 +315,7 @@ def generate_cmd(
                                                                         text=behavior)
         extra.update(params)
         for line in lines:
-            err_console.print(escape(line))
+            err_console.print(shown(line))
     elif map_name is not None:
         raise ConfigError("--map says which map an --ego-trajectory file's coordinates are in; give the file too")
     elif behavior is None:
@@ -332,7 +331,7 @@ def generate_cmd(
             result = generate(b, out_dir, settings=settings, replay=replay, fresh=fresh,
                               on_event=progress.on_event)
         except KeyboardInterrupt:
-            err_console.print(f"[yellow]interrupted: finished scenarios are saved in {escape(out)}; "
+            err_console.print(f"[yellow]interrupted: finished scenarios are saved in {shown(out)}; "
                               "run the same command again to resume[/]")
             raise typer.Exit(130) from None
     if log == "jsonl":
@@ -351,7 +350,7 @@ def generate_cmd(
               if summary["unfaithful"] else [])
     console.print(f"[bold]{result.feasible}/{len(result.outcomes)} scenarios feasible[/]"
                   + (f" ({'; '.join(notes)})" if notes else "")
-                  + f" ({escape(result.manifest.status)}); model: "
+                  + f" ({shown(result.manifest.status)}); model: "
                   f"{result.manifest.usage_last.get('total', {}).get('calls', 0)} calls")
     print_outcomes(console, result.outcomes, out_dir)
 

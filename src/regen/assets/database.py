@@ -17,7 +17,6 @@ File format (JSON), mirroring the paper's ``node[...] = [...]`` graph with typed
 
 from __future__ import annotations
 
-import json
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
@@ -37,6 +36,7 @@ from regen.assets.naming import AssetMatch, Naming
 from regen.core.base import Model
 from regen.core.text import UNSAFE, escaped
 from regen.errors import AssetDatabaseError, ConfigError
+from regen.promises.files import parse_json, read_text
 
 
 class AssetSpec(Model):
@@ -293,14 +293,8 @@ def _unsafe_text(raw: Any) -> str | None:
 
 
 def _parse(text: str, source: str) -> AssetDatabase:
-    try:
-        raw = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise AssetDatabaseError(f"{source}: not valid JSON at line {exc.lineno}, column "
-                                 f"{exc.colno}: {exc.msg}") from None
-    except RecursionError:
-        raise AssetDatabaseError(f"{source}: JSON nested too deeply; an asset database is one "
-                                 "JSON object of categories, assets, properties and behaviors") from None
+    raw = parse_json(text, source, give="an asset database is one JSON object of categories, assets, properties "
+                                         "and behaviors", error=AssetDatabaseError)
     if (where := _unsafe_text(raw)) is not None:
         raise AssetDatabaseError(f"{source}: {where}: contains a control character or lone "
                                  "surrogate; remove it (write an emoji as itself, not as a "
@@ -329,27 +323,8 @@ def load_packaged_database(package: str, resource: str) -> AssetDatabase:
 
 def load_database(path: str | Path) -> AssetDatabase:
     """A user's asset database JSON file (a domain's own database or a file: :func:`database_of`)."""
-    path = Path(path)
-    if path.is_dir():
-        raise ConfigError(f"asset database {str(path)!r} is a folder: give the path of a "
-                          "database .json file")
-    if not path.is_file():
-        raise ConfigError(f"asset database {str(path)!r} is not an existing file: give the path "
-                          "of a database .json file")
-    try:
-        if path.stat().st_size > MAX_DATABASE_BYTES:
-            raise ConfigError(f"asset database {str(path)!r} is larger than "
-                              f"{MAX_DATABASE_BYTES // 1_000_000} MB: give the path of a database "
-                              ".json file")
-        data = path.read_bytes()
-    except OSError as exc:
-        raise ConfigError(f"asset database {str(path)!r} cannot be read ({exc.strerror}): check "
-                          "its permissions") from None
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise ConfigError(f"asset database {str(path)!r} is not UTF-8 text (byte "
-                          f"0x{data[exc.start]:02x} at offset {exc.start}): save it as UTF-8") from None
+    text = read_text(path, what="asset database", give="give the path of a database .json file",
+                     limit=MAX_DATABASE_BYTES)
     return _parse(text, str(path))
 
 

@@ -91,13 +91,14 @@ def run_augment(scenario_dir: str | Path, out: str | Path, llm: LLM, *, judge: L
     ``out``); ``on_step(text)``: progress."""
     from regen import domains
     from regen.core.io import atomic_write_text, write_json
-    from regen.runfolder import ScenarioFolder
+    from regen.runfolder import ScenarioFolder, read_model
 
     src = ScenarioFolder(Path(scenario_dir).absolute())
-    scenario = src.scenario()
-    if scenario is None:
-        raise ConfigError(f"{src.path} is not a scenario folder with a readable scenario.json "
-                          "(give one of RUN/scenarios/<name>/)")
+    got = read_model(src / src.SCENARIO, Scenario, key="scenario")
+    if not got.ok:  # the file and what is wrong with it, not only the folder
+        raise ConfigError(f"{src / src.SCENARIO} is {got.problem}: {src.path} is not a scenario folder with a "
+                          "readable scenario.json (give one of RUN/scenarios/<name>/)")
+    scenario = got.value
     backend = domains.make(scenario.domain)
     db = backend.database()
     proposal, call_id = propose(scenario, llm, db.entities())

@@ -57,20 +57,6 @@ def write_json(path: str | os.PathLike[str], value: BaseModel | Any) -> Path:
     return atomic_write_text(path, text + "\n")
 
 
-def make_folder(path: Path) -> str | None:
-    """Create ``path`` (and its parents) as a writable folder. None, or what is wrong: 'file' (it
-    is one), 'under_file' (a parent is one), 'not_writable', or the OS's reason it cannot be made."""
-    if path.exists() and not path.is_dir():
-        return "file"
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-    except (FileExistsError, NotADirectoryError):
-        return "under_file"
-    except OSError as exc:
-        return str(exc.strerror or exc)
-    return None if os.access(path, os.W_OK | os.X_OK) else "not_writable"
-
-
 def try_lock(path: Path, *, shared: bool = False) -> tuple[int | None, str]:
     """An flock on ``path`` (created), without waiting: (open descriptor holding it, ''), or
     (None, the holder's pid as written in the file, '?' if none). An exclusive holder writes its

@@ -1,38 +1,20 @@
 """Text hygiene, in one place: the characters no output of the toolkit may carry.
 
-C0 controls but tab, newline and carriage return; DEL and C1 controls; the bidirectional
-embedding, override and isolate controls (U+202A-U+202E, U+2066-U+2069), which reorder what a
-terminal or a page shows ("Trojan Source"), and every other invisible format character (Unicode
-category Cf: U+200B zero width space, U+200E/U+200F direction marks, U+2060 word joiner, U+FEFF,
-the U+E0000 tag characters that can smuggle whole invisible sentences to a model ...), which make
-two texts that look the same differ; lone surrogates (half an emoji from a ``\\ud83d``
-JSON escape). The two join controls U+200C and U+200D stay: they are part of how emoji
-sequences and several scripts (Persian, Indic) are written, and reorder or hide nothing. HTML forbids the controls, terminals obey them (moving the
-cursor, clearing the screen), and a lone surrogate cannot be written as UTF-8 at all: one in a
-narrative would cost a whole page or file.
+The character classes are defined by :mod:`regen.promises.terminal` (C0 and C1 controls but
+tab, newline and carriage return; the bidi controls and every other invisible format character
+but the join controls U+200C, U+200D; lone surrogates): HTML forbids the controls, terminals obey
+them (moving the cursor, clearing the screen), and a lone surrogate cannot be written as UTF-8
+at all: one in a narrative would cost a whole page or file. This module cleans user and model
+text with them.
 """
 
 from __future__ import annotations
 
-import re
 from collections.abc import Callable
 from typing import Any
 
-_CONTROL = "\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f"  # Cc but tab, newline, carriage return
-_BIDI = "\u202a-\u202e\u2066-\u2069"  # bidi embeddings, overrides and isolates
-# Unicode category Cf (as of Unicode 15) but the join controls U+200C, U+200D; written out
-# rather than computed, so importing this costs nothing (tests/core/test_text.py checks it
-# against the running Python's unicodedata)
-_FORMAT = ("\u00ad\u0600-\u0605\u061c\u06dd\u070f\u0890\u0891\u08e2\u180e\u200b\u200e\u200f"
-           "\u202a-\u202e\u2060-\u2064\u2066-\u206f\ufeff\ufff9-\ufffb\U000110bd\U000110cd"
-           "\U00013430-\U0001343f\U0001bca0-\U0001bca3\U0001d173-\U0001d17a\U000e0001"
-           "\U000e0020-\U000e007f")
-_SURROGATE = "\ud800-\udfff"  # in a str these are always unpaired
-CONTROL = re.compile(f"[{_CONTROL}]")
-BIDI = re.compile(f"[{_BIDI}]")
-FORMAT = re.compile(f"[{_FORMAT}]")  # invisible format characters, the bidi controls among them
-SURROGATE = re.compile(f"[{_SURROGATE}]")
-UNSAFE = re.compile(f"[{_CONTROL}{_FORMAT}{_SURROGATE}]")  # any of them
+from regen.promises import terminal
+from regen.promises.terminal import BIDI, CONTROL, FORMAT, SURROGATE, UNSAFE
 
 
 def clean(text: str) -> str:
@@ -64,5 +46,10 @@ def clean_data(value: Any) -> Any:
 
 
 def escaped(text: str) -> str:
-    """``text`` with its unsafe characters written as ``\\uXXXX`` escapes, for quoting in messages."""
-    return UNSAFE.sub(lambda m: f"\\u{ord(m.group()):04x}", text)
+    """``text`` with its unsafe characters written as ``\\uXXXX`` escapes, for quoting in messages
+    (line breaks stay; :func:`regen.promises.terminal.printable` escapes those too)."""
+    return terminal.escaped(text, UNSAFE)
+
+
+__all__ = ["BIDI", "CONTROL", "FORMAT", "SURROGATE", "UNSAFE", "clean", "clean_data", "escaped", "map_strings",
+           "one_line"]

@@ -13,13 +13,21 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
-from regen.core.text import clean
-from regen.errors import RegenError
+from regen.errors import ConfigError, RegenError
 from regen.evaluation.edges import bundled_edge_examples, model_judge
 from regen.evaluation.evaluate import EvalSettings, evaluate
 from regen.evaluation.tables import print_report
 from regen.evaluation.textsets import EXAMPLE_PREFIX, bundled_sets
-from regen.runfolder import out_folder
+from regen.pipeline.terminal import shown
+from regen.promises.folders import out_folder, output_folder
+from regen.promises.secrets import redact
+
+
+def _exit(exc: RegenError) -> typer.Exit:
+    """Print ``exc`` as the one line ``error: ...`` (redacted of every key, escaped) and return
+    the exit to raise."""
+    Console(stderr=True, soft_wrap=True).print(f"[red]error:[/red] {shown(redact(str(exc), credentials=False))}")
+    return typer.Exit(code=exc.exit_code)
 
 
 def eval_command(
@@ -56,9 +64,11 @@ def eval_command(
     console = Console()
     try:  # typer would turn an empty --out into Path(""), the current folder
         out = None if out_text is None else out_folder(out_text)
+        if out is not None and not list_examples:  # a file in its place is told before any work
+            output_folder(out, give="a folder for " + ("the fidelity runs" if fidelity is not None
+                                                       else "eval.json and the plots"))
     except RegenError as exc:
-        Console(stderr=True, soft_wrap=True).print(f"[red]error:[/red] {escape(clean(str(exc)))}")
-        raise typer.Exit(code=exc.exit_code) from None
+        raise _exit(exc) from None
     if fidelity is not None:
         _fidelity(fidelity, out, llm, console)
         return
@@ -85,8 +95,7 @@ def eval_command(
                               judge_for_trial=judge_for_trial, out_dir=out,
                               progress=lambda msg: status.update(msg))
     except RegenError as exc:
-        Console(stderr=True, soft_wrap=True).print(f"[red]error:[/red] {escape(clean(str(exc)))}")
-        raise typer.Exit(code=exc.exit_code) from exc
+        raise _exit(exc) from None
     print_report(report, console)
 
 
@@ -97,16 +106,17 @@ def _fidelity(source: str, out: Path | None, llm: str, console: Console) -> None
     from regen.evaluation.fidelity_set import load_cases
 
     if out is None:
-        Console(stderr=True).print("[red]error:[/red] --fidelity needs --out FOLDER (the runs of every "
-                                   "case go there; rerunning resumes)")
-        raise typer.Exit(code=2)
+        raise _exit(ConfigError("--fidelity needs --out FOLDER (the runs of every case go there; "
+                                "rerunning resumes)"))
     try:
         cases = load_cases(source)
         with console.status("fidelity") as status:
-            results = evaluate_fidelity(cases, out, llm=llm, progress=lambda msg: status.update(escape(msg)))
+            results = evaluate_fidelity(
+                cases, out, llm=llm, progress=lambda msg: status.update(shown(msg)),
+                note=lambda msg: Console(stderr=True, soft_wrap=True).print(
+                    f"[yellow]note:[/yellow] {shown(msg)}"))
     except RegenError as exc:
-        Console(stderr=True, soft_wrap=True).print(f"[red]error:[/red] {escape(clean(str(exc)))}")
-        raise typer.Exit(code=exc.exit_code) from exc
+        raise _exit(exc) from None
     rows = table(results)
     t = Table(title=f"Entity fidelity ({len(results)} cases, model {escape(llm)})")
     for col in ("domain", "split", "cases", "entity acc.", "key-state acc.", "verified",
@@ -119,7 +129,7 @@ def _fidelity(source: str, out: Path | None, llm: str, console: Console) -> None
                   f"{r['verified_and_caused']} ({r['verified_causal_checked']})")
     console.print(t)
     (out / "fidelity_table.json").write_text(json.dumps(rows, indent=2) + "\n", encoding="utf-8")
-    console.print(f"per case: {escape(str(out / 'fidelity.jsonl'))}")
+    console.print(f"per case: {shown(out / 'fidelity.jsonl')}")
 
 
 def make_app() -> typer.Typer:

@@ -41,6 +41,7 @@ from pydantic import BaseModel, Field, ValidationError
 
 from regen.core.base import Model
 from regen.errors import ConfigError, RegenError
+from regen.promises.files import read_text
 
 log = logging.getLogger(__name__)
 
@@ -101,10 +102,7 @@ def load_edge_examples(path: str | Path | list[Path]) -> list[EdgeExample]:
     if isinstance(path, list):
         return [row for p in path for row in load_edge_examples(p)]
     path = Path(path)
-    try:
-        lines = path.read_text(encoding="utf-8").splitlines()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"cannot read the edge examples {path}: {exc}") from exc
+    lines = read_text(path, what="edge examples", give="give a JSON-lines file of labeled edges").split("\n")
     out = []
     for i, line in enumerate(lines, start=1):
         if not line.strip() or line.lstrip().startswith("#"):

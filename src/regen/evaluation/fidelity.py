@@ -28,6 +28,8 @@ from pathlib import Path
 from typing import Any
 
 from regen.core.verdict import FEASIBLE_STATUSES
+from regen.promises.folders import output_folder
+from regen.promises.names import child, safe_name
 
 RESULTS = "fidelity.jsonl"
 
@@ -94,7 +96,7 @@ def run_case(case: Any, out: Path, *, llm: str, seed: int = 0) -> CaseResult:
     from regen.runfolder import RunSettings
 
     params = {k: v for k, v in (("ego_template", case.ego_template), ("reward", case.reward)) if v}
-    folder = out / case.id
+    folder = child(out, case.id, what="the case id")  # a plain name, never a path out of ``out``
     try:
         behavior = make_behavior(case.behavior, case.domain, **params)
         settings = RunSettings(llm=llm, depth=1, max_nodes=1, max_scenarios=1, causes=1,
@@ -127,17 +129,44 @@ def _started_cause(folder: Path) -> str:
         return ""
 
 
-def evaluate_fidelity(cases: Sequence[Any], out: Path, *, llm: str = "local",
-                      progress: Callable[[str], None] | None = None) -> list[CaseResult]:
-    """Run every case (resuming those already in ``out/fidelity.jsonl``) and return the results."""
-    out.mkdir(parents=True, exist_ok=True)
+def _done(results_file: Path, note: Callable[[str], None] | None) -> dict[str, CaseResult]:
+    """The cases ``results_file`` already holds. A last line a kill cut off is dropped (said
+    through ``note``) and its case runs again; any other broken line is a ConfigError naming the
+    file and the line."""
+    from pydantic import TypeAdapter, ValidationError
+
+    from regen.errors import ConfigError
+    from regen.promises.files import label, resume_json_lines
+
+    give = f"delete the line (its case runs again) or move {results_file} aside"
+    rows, dropped = resume_json_lines(results_file, what="results file", give=give)
+    if dropped is not None and note is not None:
+        note(dropped)
+    adapter = TypeAdapter(CaseResult)
     done: dict[str, CaseResult] = {}
+    for n, row in rows:
+        try:
+            r = adapter.validate_python(row)
+        except ValidationError as exc:
+            first = exc.errors()[0]
+            where = ".".join(map(str, first["loc"])) or "the line"
+            raise ConfigError(f"{label(results_file, 'results file')}, line {n}: {where}: {first['msg']}; not a "
+                              f"case result this command wrote: {give}") from None
+        done[r.id] = r
+    return done
+
+
+def evaluate_fidelity(cases: Sequence[Any], out: Path, *, llm: str = "local",
+                      progress: Callable[[str], None] | None = None,
+                      note: Callable[[str], None] | None = None) -> list[CaseResult]:
+    """Run every case (resuming those already in ``out/fidelity.jsonl``) and return the results.
+    ``note``: told what the resume had to repair (a cut-off last line dropped). A case id that
+    cannot name a folder of ``out`` (``../x``, ``/abs``, ``a/b``) is refused before any case runs."""
+    for case in cases:
+        safe_name(case.id, what="the case id")
+    output_folder(out, give="a folder for the fidelity runs")
     results_file = out / RESULTS
-    if results_file.exists():
-        for line in results_file.read_text(encoding="utf-8").splitlines():
-            if line.strip():
-                row = json.loads(line)
-                done[row["id"]] = CaseResult(**row)
+    done = _done(results_file, note)
     with open(results_file, "a", encoding="utf-8") as fh:
         for i, case in enumerate(cases, start=1):
             if case.id in done:

@@ -12,7 +12,6 @@ visitor): a cause nobody can play counts as a miss until the database can play i
 
 from __future__ import annotations
 
-import json
 from importlib import resources
 from pathlib import Path
 from typing import Literal
@@ -21,9 +20,11 @@ from pydantic import Field, ValidationError
 
 from regen.core.base import Model
 from regen.errors import ConfigError
+from regen.promises.files import json_lines, label, text_lines
 
 _PACKAGE = "regen.evaluation"
 _NAMES = {"driving": "data/fidelity_driving.jsonl", "manipulation": "data/fidelity_manipulation.jsonl"}
+_GIVE = f"give a JSON-lines file (one case object per line) or one of: {', '.join(_NAMES)}"
 
 
 class ExpectedEntity(Model):
@@ -52,31 +53,25 @@ def load_cases(source: str | Path) -> list[FidelityCase]:
     if isinstance(source, str) and source in _NAMES:
         text = resources.files(_PACKAGE).joinpath(_NAMES[source]).read_text(encoding="utf-8")
         where = f"bundled set {source!r}"
+        rows = text_lines(text, where, give=_GIVE)
     else:
-        path = Path(source)
-        try:
-            text = path.read_text(encoding="utf-8")
-        except OSError as exc:
-            raise ConfigError(f"cannot read the labeled set {path}: {exc.strerror or exc}; give a JSON-lines "
-                              f"file or one of: {', '.join(_NAMES)}") from None
-        where = str(path)
+        rows = json_lines(source, what="labeled set", give=_GIVE)
+        where = label(source, "labeled set")
     cases: list[FidelityCase] = []
     seen: set[str] = set()
-    for n, line in enumerate(text.splitlines(), start=1):
-        if not line.strip():
-            continue
+    for n, value in rows:
         try:
-            case = FidelityCase.model_validate(json.loads(line))
-        except (ValueError, ValidationError) as exc:
-            first = exc.errors()[0] if isinstance(exc, ValidationError) else None
-            msg = f"{'.'.join(map(str, first['loc']))}: {first['msg']}" if first else str(exc)
-            raise ConfigError(f"{where}, line {n}: {msg}") from None
+            case = FidelityCase.model_validate(value)
+        except ValidationError as exc:
+            first = exc.errors()[0]
+            raise ConfigError(f"{where}, line {n}: {'.'.join(map(str, first['loc'])) or 'the line'}: "
+                              f"{first['msg']}") from None
         if case.id in seen:
             raise ConfigError(f"{where}, line {n}: the id {case.id!r} repeats")
         seen.add(case.id)
         cases.append(case)
     if not cases:
-        raise ConfigError(f"{where} holds no cases")
+        raise ConfigError(f"{where} holds no cases: {_GIVE}")
     return cases
 
 

@@ -14,7 +14,6 @@ examples are addressed as ``example:<name>`` (see ``bundled_sets()``).
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -22,9 +21,12 @@ from typing import Any
 
 from regen.errors import ConfigError
 from regen.evaluation.runs import RunRecord, is_run_folder, load_run
+from regen.promises.files import parse_json, read_text, text_lines
 
 EXAMPLE_PREFIX = "example:"
 _TEXT_KEYS = ("text", "narrative", "description")
+_GIVE = ("give a .txt file (one text per line), a .json list of texts or a .jsonl file (one text per line), "
+         "saved as UTF-8")
 
 
 @dataclass
@@ -50,10 +52,7 @@ def parse_text_set(content: str, fmt: str, where: str) -> tuple[str | None, list
     """Parse file content in format ``fmt`` ('txt', 'json', 'jsonl') into (name, texts)."""
     name = None
     if fmt == "json":
-        try:
-            data = json.loads(content)
-        except json.JSONDecodeError as exc:
-            raise ConfigError(f"{where} is not valid JSON: {exc}") from exc
+        data = parse_json(content, where, give=_GIVE)
         if isinstance(data, dict):
             name = data.get("name") if isinstance(data.get("name"), str) else None
             data = data.get("texts")
@@ -61,15 +60,7 @@ def parse_text_set(content: str, fmt: str, where: str) -> tuple[str | None, list
             raise ConfigError(f"{where}: expected a JSON list of texts or {{'texts': [...]}}")
         texts = [_item_text(x, f"{where} item {i + 1}") for i, x in enumerate(data)]
     elif fmt == "jsonl":
-        texts = []
-        for i, line in enumerate(content.splitlines()):
-            if not line.strip():
-                continue
-            try:
-                item = json.loads(line)
-            except json.JSONDecodeError as exc:
-                raise ConfigError(f"{where} line {i + 1} is not valid JSON: {exc}") from exc
-            texts.append(_item_text(item, f"{where} line {i + 1}"))
+        texts = [_item_text(item, f"{where}, line {n}") for n, item in text_lines(content, where, give=_GIVE)]
     else:
         texts = [ln for ln in content.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
     texts = [" ".join(t.split()) for t in texts]
@@ -107,10 +98,7 @@ def load_text_set(source: str | Path, name: str | None = None) -> TextSet:
     if not path.is_file():
         raise ConfigError(f"{path} does not exist (expected a text file, JSON file, run folder "
                           f"or {EXAMPLE_PREFIX}<name>)")
-    try:
-        content = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"cannot read {path}: {exc}") from exc
+    content = read_text(path, what="text set", give=_GIVE)
     suffix = path.suffix.lower()
     fmt = {".json": "json", ".jsonl": "jsonl"}.get(suffix, "txt")
     file_name, texts = parse_text_set(content, fmt, str(path))

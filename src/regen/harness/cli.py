@@ -17,8 +17,8 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
-from regen.core.text import clean
 from regen.errors import RegenError
+from regen.pipeline.terminal import shown
 
 _STYLE = {"PASS": "green", "FAIL": "red", "SKIP": "yellow", "ERROR": "red"}
 
@@ -71,7 +71,7 @@ def test_command(
     from regen.harness.cases import case_line
     from regen.harness.pictures import keep_failures
     from regen.harness.suite import open_suite, run_tests
-    from regen.runfolder import out_folder
+    from regen.promises.folders import out_folder
 
     console = Console(highlight=False, soft_wrap=True)
     err = Console(stderr=True, soft_wrap=True)
@@ -79,7 +79,7 @@ def test_command(
     def show(case) -> None:
         line = case_line(case)
         tag, rest = line.split("  ", 1)
-        console.print(f"[{_STYLE[tag]}]{tag}[/]  {escape(clean(rest))}")
+        console.print(f"[{_STYLE[tag]}]{tag}[/]  {shown(rest)}")
 
     files: dict[str, Path] = {}
     try:
@@ -91,14 +91,14 @@ def test_command(
         report = run_tests(run_dir, policy, variants=n, seed=seed, step_timeout=step_timeout,
                            oracle=oracle, adversarial=adversarial, on_case=show, harness=harness,
                            on_episode=keep_failures(dest, harness, policy=policy), out=dest,
-                           on_note=lambda note: err.print(f"[yellow]note:[/yellow] {escape(clean(note))}"))
+                           on_note=lambda note: err.print(f"[yellow]note:[/yellow] {shown(note)}"))
         files = {"tests": dest / "tests.json", "junit": dest / "junit.xml"}
     except KeyboardInterrupt:
         err.print("[yellow]interrupted:[/yellow] the finished tests are kept; run the same command again "
                   "to resume")
         raise typer.Exit(code=130) from None
     except RegenError as exc:
-        err.print(f"[red]error:[/red] {escape(clean(str(exc)))}")
+        err.print(f"[red]error:[/red] {shown(str(exc))}")
         raise typer.Exit(code=exc.exit_code) from exc
     except OSError as exc:
         from regen.core.io import cannot_write, storage_error
@@ -106,11 +106,11 @@ def test_command(
         target = dest if dest is not None else Path(run_dir)
         if not cannot_write(exc, target) and not cannot_write(exc, Path(run_dir)):
             raise
-        err.print(f"[red]error:[/red] {escape(clean(str(storage_error(exc, target))))}")
+        err.print(f"[red]error:[/red] {shown(storage_error(exc, target))}")
         raise typer.Exit(code=2) from None
     s = report.summary()
     for line in summary_lines(report, harness.parameter_units):
-        console.print(escape(clean(line)))
+        console.print(shown(line))
     errors = f", {s['errors']} could not run" if s["errors"] else ""
     console.print(f"{s['passed']}/{s['tests']} passed, {s['skipped']} skipped{errors}; {report.collision_line()}")
     console.print(f"wrote {escape(str(files['tests']))} and {escape(str(files['junit']))}")
@@ -135,7 +135,7 @@ def _rerender(run_dir: Path, dest: Path) -> str:
     try:
         return f"report: {escape(str(write_run_report(run_dir)))}{note}"
     except (RegenError, OSError) as exc:  # the tests are written; a report problem is only told
-        return f"[yellow]report not updated:[/yellow] {escape(clean(str(exc)))}"
+        return f"[yellow]report not updated:[/yellow] {shown(str(exc))}"
 
 
 def make_app() -> typer.Typer:

@@ -14,6 +14,8 @@ from regen.errors import ConfigError
 
 
 def _from_file(path: Path) -> ModuleType:
+    if path.is_dir():
+        raise ConfigError(f"policy file {path} is a folder: give path/to/file.py[:callable]")
     if not path.is_file():
         raise ConfigError(f"policy file {path} does not exist")
     mod_name = f"regen_user_policy_{abs(hash(str(path.resolve())))}"

@@ -22,10 +22,11 @@ import shutil
 from pathlib import Path
 from typing import Any
 
-from regen.core.io import make_folder, try_lock, write_json
+from regen.core.io import try_lock, write_json
 from regen.errors import ConfigError
 from regen.harness.cases import CaseResult
 from regen.harness.pictures import FAILURE_GIF, TRACE_FILE, case_folder
+from regen.promises.folders import output_folder
 from regen.runfolder import RunFolder, ScenarioFolder, read_json
 
 SETTINGS = "settings.json"
@@ -75,13 +76,7 @@ class ResultsFolder:
 
     def check(self) -> None:
         """ConfigError when the folder cannot be one (checked before anything runs)."""
-        p = self.path
-        problem = make_folder(p)
-        if problem is not None:
-            raise ConfigError({"file": f"--out {p} is a file; give a folder for tests.json and junit.xml",
-                               "under_file": f"--out {p} lies under a file; give a folder path",
-                               "not_writable": f"{p} is not writable; choose another --out"}
-                              .get(problem, f"cannot create {p}: {problem}; choose another --out"))
+        output_folder(self.path, give="a folder for tests.json and junit.xml")
 
     def hold_run(self, run: Path) -> None:
         """A shared lock on the run folder: ConfigError while regen generate writes it."""

@@ -194,7 +194,6 @@ def run_tests(run_dir: str | Path, policy_spec: str, *, variants: int = 1, seed:
     remote: PolicyProcess | None = None
     try:
         if results is not None:
-            results.hold_run(rf.path)
             settings = {"policy": policy_spec, "policy_digest": policy_digest(policy_spec),
                         "variants": variants, "seed": seed, "oracle": oracle, "step_timeout": timeout,
                         "adversarial": adversarial, "in_process": policy is not None}
@@ -205,6 +204,8 @@ def run_tests(run_dir: str | Path, policy_spec: str, *, variants: int = 1, seed:
             remote = PolicyProcess(harness, policy_spec,
                                    log_path=results.path / POLICY_LOG if results is not None else None)
             remote.start()
+        if results is not None:  # after the policy loaded: a refused policy leaves nothing in the run
+            results.hold_run(rf.path)
         pol = policy if policy is not None else remote
 
         def run_one(name: str, scenario: Scenario, k: int, template_trace: Trace | None, base: dict) -> CaseResult:

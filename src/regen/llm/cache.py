@@ -25,9 +25,10 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from regen.errors import CacheCorruptedError
+from regen.errors import CacheCorruptedError, ConfigError
 from regen.llm.base import Completion, Message, Sampling
 from regen.llm.sanitize import clean_text
+from regen.promises.folders import make_folder
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS calls (
@@ -70,7 +71,7 @@ class CallCache:
         self._lock = threading.Lock()
         target = ":memory:"
         if self.path is not None:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._check_place(self.path)
             target = str(self.path)
         try:
             self._db = sqlite3.connect(target, check_same_thread=False, timeout=30)
@@ -86,6 +87,21 @@ class CallCache:
             raise CacheCorruptedError(
                 f"the LLM cache {self.path} is not a readable cache ({exc}); move or delete it "
                 "and run again (cached answers in it are lost; a replay run needs them)") from None
+
+    @staticmethod
+    def _check_place(path: Path) -> None:
+        """Make the cache file's folder; ConfigError on one line for a folder in the file's place
+        or a file on its path (the cache is a file the user may name with --cache)."""
+        if path.is_dir():
+            raise ConfigError(f"the LLM cache {path} is a folder: give the path of a cache file, e.g. "
+                              f"{path / 'llm-cache.sqlite'}")
+        problem = make_folder(path.parent)
+        if problem in ("file", "under_file"):
+            raise ConfigError(f"the LLM cache {path} lies under a file ({path.parent} cannot be a folder): "
+                              "give the path of a cache file in a folder")
+        if problem not in (None, "not_writable"):  # a read-only folder: SQLite says what it can do
+            raise ConfigError(f"cannot make the folder of the LLM cache {path} ({problem}): give the path of "
+                              "a cache file in a writable folder")
 
     def get(self, key: str, *, failed: bool = False) -> tuple[Completion, float] | None:
         """The stored completion and its original latency [s], or None; an answer marked failed

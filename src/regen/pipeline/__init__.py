@@ -20,7 +20,6 @@ import contextlib
 import json
 import logging
 import os
-import re
 import time
 from collections.abc import Callable, Collection
 from concurrent.futures import ProcessPoolExecutor
@@ -47,6 +46,8 @@ from regen.pipeline.stages import (
     run_path,
     simulate_stage,
 )
+from regen.promises.names import slug
+from regen.promises.secrets import redact
 from regen.runfolder import (
     RunFolder,
     RunManifest,
@@ -75,11 +76,6 @@ class RunResult:
         return sum(o.verdict.feasible for o in self.outcomes)
 
 
-def slug(text: str, n: int = 40) -> str:
-    s = re.sub(r"[^a-z0-9]+", "-", text.lower()).strip("-")
-    return s[:n].rstrip("-") or "scenario"
-
-
 def select_paths(paths: list[CausePath], k: int, *, first: Collection[str] = ()) -> list[CausePath]:
     """Up to ``k`` paths: the causes in ``first`` (given with ``--cause``) before all others,
     whatever ``k``; then one per root cause (diversity across causes), then property variants
@@ -97,7 +93,9 @@ def select_paths(paths: list[CausePath], k: int, *, first: Collection[str] = ())
 
 
 def folder_names(paths: list[CausePath]) -> list[str]:
-    return [f"{i:02d}-{slug(p.events[0])}" for i, p in enumerate(paths, start=1)]
+    """Scenario folder names from the model's cause texts: slugged (:mod:`regen.promises.names`),
+    made unique by their place in run order."""
+    return [f"{i:02d}-{slug(p.events[0], fallback='scenario')}" for i, p in enumerate(paths, start=1)]
 
 
 
@@ -267,7 +265,8 @@ def _stages(run: RunFolder, manifest: RunManifest, backend: DomainBackend, setti
         raise
     except RegenError as exc:
         manifest.status = "failed"
-        manifest.message = f"{exc}; fix this and run the same command again to resume"
+        # redacted: run.json and the report keep it (a provider's error may echo a key)
+        manifest.message = redact(f"{exc}; fix this and run the same command again to resume", credentials=False)
         raise
     except OSError as exc:
         if not cannot_write(exc, run.path):

@@ -24,8 +24,8 @@ def import_command(
     """Import a scenario file: read its storyboard, derive the FSM, simulate and verify it."""
     from regen import domains
     from regen.pipeline.imports import import_file
-    from regen.pipeline.terminal import print_outcomes
-    from regen.runfolder import out_folder
+    from regen.pipeline.terminal import print_outcomes, shown
+    from regen.promises.folders import out_folder
 
     out_dir = out_folder(out)
     with console.status(f"importing {escape(Path(file).name)}") as status:
@@ -40,8 +40,8 @@ def import_command(
             err_console.print(f"[yellow]interrupted; run the same command again to resume ({escape(out)})[/]")
             raise typer.Exit(130) from None
     scenario = result.outcomes[0].scenario()
-    if scenario is not None:
-        console.print(f"[bold]{escape(scenario.narrative)}[/]")
+    if scenario is not None:  # the file's own text: shown escaped, on one line each
+        console.print(f"[bold]{shown(scenario.narrative)}[/]")
         for note in domains.make(scenario.domain).import_notes(scenario):
-            console.print(f"  note: {escape(note)}")
+            console.print(f"  note: {shown(note)}")
     print_outcomes(console, result.outcomes, out_dir, indent="")

@@ -20,8 +20,9 @@ from regen.contract import DomainBackend
 from regen.core.graph import CausePath
 from regen.core.verdict import Verdict
 from regen.errors import ConfigError
-from regen.pipeline import RunResult, RunSettings, ScenarioOutcome, _finish, slug
+from regen.pipeline import RunResult, RunSettings, ScenarioOutcome, _finish
 from regen.pipeline.stages import simulate_stage
+from regen.promises.names import slug
 from regen.runfolder import RunFolder
 from regen.runfolder.manifest import now
 
@@ -49,7 +50,7 @@ def import_file(file: str | Path, out: str | Path, *, domain: str | None = None,
     docstring)."""
     file = Path(file)
     if not file.is_file():
-        raise ConfigError(f"{file}: no such file; give a scenario file ({', '.join(sorted({s for n in domains.names() for s in domains.make(n).import_suffixes}))})")
+        raise ConfigError(f"{file}: {'a folder, not a file' if file.is_dir() else 'no such file'}; give a scenario file ({', '.join(sorted({s for n in domains.names() for s in domains.make(n).import_suffixes}))})")
     backend = backend_for(file, domain)
     started = time.perf_counter()
 
@@ -64,7 +65,7 @@ def import_file(file: str | Path, out: str | Path, *, domain: str | None = None,
     digest = hashlib.sha256(file.read_bytes()).hexdigest()[:16]  # another file's run is not resumed
     manifest = run.open(scenario.behavior, settings, {"imported": f"{file.name} sha256:{digest}"}, fresh=fresh)
     try:
-        name = f"01-{slug(file.stem)}"
+        name = f"01-{slug(file.stem, fallback='scenario')}"  # a file's stem: slugged, never refused
         manifest.scenarios = [name]
         run.write_manifest(manifest)
         folder = run.scenario(name)

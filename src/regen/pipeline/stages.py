@@ -138,6 +138,11 @@ def simulate_stage(domain: str, scenario_dir: str, pictures: bool = True) -> dic
     """Simulate, verify, draw and export one grounded scenario folder. Runs in worker processes
     too, so it takes and returns plain data; the verdict is written last."""
     folder = ScenarioFolder(Path(scenario_dir))
+    with folder.recording():  # what the domain writes here is the run's: --fresh removes it
+        return _simulate(domain, folder, pictures)
+
+
+def _simulate(domain: str, folder: ScenarioFolder, pictures: bool) -> dict[str, Any]:
     folder.reset()
     backend = domains.make(domain)
     scenario = folder.scenario()
@@ -192,7 +197,7 @@ _PLAYED_OUT = ("verified", "verified_after_relaxation", "unfaithful")
 
 
 def narrative_claims(backend: DomainBackend, scenario: Scenario, trace: Trace) -> list[str]:
-    """The narrative's sentences that claim a collision or a stop the trace does not show."""
+    """The narrative's sentences that claim a collision, a stop or a state the trace does not show."""
     robot = scenario.robot()
     track = trace.actors.get(robot.name) if robot is not None else None
     stood = bool(min(track.speed) < 0.5) if track is not None and track.speed else None
@@ -200,8 +205,17 @@ def narrative_claims(backend: DomainBackend, scenario: Scenario, trace: Trace) -
     collisions = None
     if harness is not None and robot is not None:
         collisions = [i.message for i in harness.incidents(scenario, trace) if i.collision]
-    return claims.check_narrative(scenario.narrative, collisions=collisions, robot_stood=stood,
-                                  robot=backend.report_hints.robot)
+    db = backend.database()
+    cast = [(e.name, e.asset) for e in scenario.entities if e.kind != "robot" and e.asset in db.assets]
+    shown: dict[str, dict[str, set[str]]] = {}
+    for name, _ in cast:
+        e, recorded = scenario.entity(name), trace.actors.get(name)
+        shown[name] = {k: {str(v)} for k, v in e.properties.items()}
+        for k, seq in (recorded.states.items() if recorded is not None else ()):
+            shown[name].setdefault(k, set()).update(str(v) for v in seq)
+    return (claims.check_narrative(scenario.narrative, collisions=collisions, robot_stood=stood,
+                                   robot=backend.report_hints.robot)
+            + claims.check_states(scenario.narrative, cast, shown, db))
 
 
 def causal_stage(backend: DomainBackend, scenario: Scenario, verdict: Verdict, folder: ScenarioFolder
@@ -300,7 +314,8 @@ def redraw_stage(domain: str, scenario_dir: str, pictures: bool = True) -> bool:
     if scenario is None or verdict is None or trace is None:
         return False
     timings: dict[str, float] = {}
-    drawn, problems = _draw(domains.make(domain), scenario, trace, verdict, folder, pictures, timings)
+    with folder.recording():
+        drawn, problems = _draw(domains.make(domain), scenario, trace, verdict, folder, pictures, timings)
     if problems:
         folder.write_error("\n".join(problems))
     else:

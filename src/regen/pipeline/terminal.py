@@ -1,6 +1,8 @@
-"""The terminal lines of a run's outcomes, shared by ``regen generate`` and ``regen import``.
+"""The terminal lines of a run's outcomes, shared by ``regen generate`` and ``regen import``, and
+:func:`shown`, how every command prints model, file or error text to a Rich console.
 
-Imports: rich, and the pipeline's own outcome type and the verdict's causal part (annotations only).
+Imports: rich, :mod:`regen.promises.terminal`, and the pipeline's own outcome type and the
+verdict's causal part (annotations only).
 """
 
 from __future__ import annotations
@@ -11,11 +13,21 @@ from typing import TYPE_CHECKING
 
 from rich.markup import escape
 
+from regen.promises.terminal import printable
+
 if TYPE_CHECKING:
     from rich.console import Console
 
     from regen.core.verdict import Causal
     from regen.pipeline.stages import ScenarioOutcome
+
+
+def shown(value: object) -> str:
+    """Model, file or error text for a Rich console: on one line, with every control, line-break
+    (U+2028, U+2029 too), bidi and invisible character shown escaped
+    (:func:`regen.promises.terminal.printable`) and Rich markup escaped ('box [/]' prints as
+    written)."""
+    return escape(printable(value))
 
 
 def causal_mark(causal: Causal | None) -> str:
@@ -25,7 +37,7 @@ def causal_mark(causal: Causal | None) -> str:
         return ""
     text = causal.status + (f" ({', '.join(causal.confounders)})" if causal.confounders else "")
     colour = {"caused": "green", "not_checked": "dim"}.get(causal.status, "yellow")
-    return f"[{colour}]{escape(text)}[/]"
+    return f"[{colour}]{shown(text)}[/]"
 
 
 def print_outcomes(console: Console, outcomes: Sequence[ScenarioOutcome], out_dir: Path, *,
@@ -39,9 +51,9 @@ def print_outcomes(console: Console, outcomes: Sequence[ScenarioOutcome], out_di
         causal = v.causal  # None: a verdict written before the check existed
         if causal is not None:
             mark += f", {causal_mark(causal)}"
-        console.print(f"{indent}{escape(o.folder)}: {mark}: {escape(v.reason)}")
+        console.print(f"{indent}{shown(o.folder)}: {mark}: {shown(v.reason)}")
         if causal is not None and causal.status != "caused" and causal.reason:
-            console.print(f"{indent}    cause: {escape(causal.reason)}")
+            console.print(f"{indent}    cause: {shown(causal.reason)}")
     report = out_dir / "report.html"
     if report.exists():
-        console.print(f"report: {report}")
+        console.print(f"report: {shown(report)}")

@@ -9,8 +9,9 @@ from pathlib import Path
 from typing import Any
 
 from regen.report.links import href
+from regen.runfolder import RunFolder
 
-WHATIF = "whatif"
+WHATIF = RunFolder.WHATIF
 
 __all__ = ["WhatIfRow", "load_whatifs"]
 

@@ -14,20 +14,22 @@ problem, so a half-finished or hand-edited run can still be shown (:mod:`.reader
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import shutil
-from collections.abc import Iterator
+from collections.abc import Collection, Iterator
 from pathlib import Path
 from typing import Any, ClassVar
 
 from regen.core.behavior import Behavior
 from regen.core.graph import CausePath, ScenarioGraph
-from regen.core.io import atomic_write_text, make_folder, try_lock, write_json
+from regen.core.io import atomic_write_text, try_lock, write_json
 from regen.core.scenario import Scenario
 from regen.core.trace import Trace
 from regen.core.verdict import Verdict
-from regen.errors import ConfigError, RunError
+from regen.errors import RunError
+from regen.promises.folders import entries, is_temp_of, output_folder
 from regen.runfolder.manifest import RunManifest, RunSettings, merge_usage, now
 from regen.runfolder.readers import (
     MAX_JSON_BYTES,
@@ -37,15 +39,6 @@ from regen.runfolder.readers import (
     read_model,
     read_text,
 )
-
-
-def out_folder(value: str | os.PathLike[str], option: str = "--out") -> Path:
-    """The folder a command's ``option`` names; ConfigError for an empty value (``Path("")`` is
-    the current folder, which would receive a whole run unasked)."""
-    if not str(value).strip():
-        raise ConfigError(f"{option} is empty: give a folder path, e.g. {option} runs/my-run")
-    return Path(value)
-
 
 # --- one scenario folder -------------------------------------------------------------------------
 
@@ -60,6 +53,11 @@ class ScenarioFolder:
     TIMINGS = "timings.json"
     FILES = "files.json"
     ERROR = "error.txt"
+    #: the names of what the domain's steps (simulate, render, export) wrote here, beside the
+    #: folder's own files: what ``--fresh`` may remove (:mod:`.fresh`)
+    WRITTEN = "written.json"
+    #: the files every scenario folder may hold, by name
+    OWN: ClassVar[tuple[str, ...]] = (PATH, SCENARIO, TRACE, VERDICT, TIMINGS, FILES, ERROR, WRITTEN)
 
     def __init__(self, path: Path):
         self.path = Path(path)
@@ -110,7 +108,62 @@ class ScenarioFolder:
         return {str(k): str(v) for k, v in raw.value.items()
                 if isinstance(v, str) and Path(v).name == v and (self / v).is_file()}
 
+    def written(self) -> set[str]:
+        """The names of what the run wrote here beyond :attr:`OWN`: those ``written.json`` lists
+        and those ``files.json`` lists (a run made before ``written.json`` was kept has only
+        these); plain names only, whether or not they still exist."""
+        names: set[str] = set()
+        for name, want in ((self.WRITTEN, list), (self.FILES, dict)):
+            raw = read_json(self / name)
+            if raw.ok and isinstance(raw.value, want):
+                names.update(v for v in (raw.value.values() if want is dict else raw.value)
+                             if isinstance(v, str) and v and Path(v).name == v and v not in (".", ".."))
+        return names
+
+    def foreign(self, known: Collection[str] = ()) -> list[str]:
+        """The entries of the folder the run did not write (``/`` after a folder's name): not
+        among :attr:`OWN`, :meth:`written` or ``known`` (names the run wrote into its other
+        scenario folders), nor a temporary file of an atomic write of one of them."""
+        own = {*self.OWN, *self.written(), *known}
+        return [p.name + ("/" if p.is_dir() and not p.is_symlink() else "")
+                for p in entries(self.path, error=RunError)
+                if p.name not in own and not is_temp_of(p.name, own)]
+
     # writers (each atomic)
+    def record_written(self, names: Collection[str]) -> None:
+        """Add ``names`` (entries of this folder) to ``written.json``."""
+        new = {n for n in names if Path(n).name == n and n not in self.OWN} - self.written()
+        if new:
+            raw = read_json(self / self.WRITTEN)
+            old = raw.value if raw.ok and isinstance(raw.value, list) else []
+            write_json(self / self.WRITTEN, sorted({*(v for v in old if isinstance(v, str)), *new}))
+
+    @contextlib.contextmanager
+    def recording(self) -> Iterator[None]:
+        """Record in ``written.json`` every entry that appears in the folder while the block
+        runs (a domain's simulate, render and export steps write files the toolkit does not
+        name), even when the block fails."""
+        def names() -> set[str]:
+            try:
+                return {p.name for p in self.path.iterdir()}
+            except OSError:
+                return set()
+
+        before = names()
+        failed = False
+        try:
+            yield
+        except BaseException:
+            failed = True
+            raise
+        finally:
+            appeared = {n for n in names() - before if not n.endswith(".tmp")}
+            try:
+                self.record_written(appeared)
+            except OSError:
+                if not failed:  # a full disk: the block's own error is the one to tell
+                    raise
+
     def start(self, path: CausePath) -> None:
         self.path.mkdir(parents=True, exist_ok=True)
         write_json(self / self.PATH, path)
@@ -125,7 +178,8 @@ class ScenarioFolder:
         write_json(self / self.TIMINGS, {**self.timings(), **timings})
 
     def add_files(self, files: dict[str, Path]) -> None:
-        """Record role -> file written by the domain (paths outside the folder are refused)."""
+        """Record role -> file written by the domain (paths outside the folder are refused), and
+        the files as written by the run."""
         known = self.files()
         for role, p in files.items():
             p = Path(p)
@@ -133,6 +187,7 @@ class ScenarioFolder:
                 raise RunError(f"{p} is outside the scenario folder {self.path}; a domain writes "
                                "its files into the folder it is given")
             known[role] = p.name
+        self.record_written(known.values())
         write_json(self / self.FILES, known)
 
     def write_error(self, text: str) -> None:
@@ -254,13 +309,8 @@ class RunFolder:
     # --- opening for writing -----------------------------------------------------------------
 
     def _check_writable(self) -> None:
-        p = self.path
-        problem = make_folder(p)
-        if problem is not None:
-            raise RunError({"file": f"--out {p} is a file; give a folder (new or an earlier run's)",
-                            "under_file": f"--out {p} lies under a file; give a folder path",
-                            "not_writable": f"the run folder {p} is not writable; choose another --out"}
-                           .get(problem, f"cannot create the run folder {p}: {problem}; choose another --out"))
+        output_folder(self.path, give="a folder (new or an earlier run's)", what="the run folder",
+                      error=RunError)
 
     def _read_or_rebuild(self, behavior: Behavior, settings: RunSettings,
                          domain_settings: dict[str, str | None]) -> tuple[RunManifest, str]:
@@ -293,26 +343,28 @@ class RunFolder:
     #: Top-level files a run writes; ``--fresh`` removes them (and their temporary files).
     RUN_FILES: ClassVar[tuple[str, ...]] = (MANIFEST, GRAPH, "graph.png", "graph.html", EVENTS, SUMMARY,
                                             REPORT)
+    WHATIF = "whatif"  # regen whatif: RUN/whatif/<scenario>-whatif-<hash>/ and its model cache
+    AUGMENT = "augment"  # regen augment: RUN/augment/<scenario>-augment/ and its model cache
     #: Top-level entries a run keeps over ``--fresh``: the lock, the model cache (answers are keyed
-    #: by model and prompt, so they stay valid) and ``regen test`` results (another command's).
+    #: by model and prompt, so they stay valid), and other commands' results in the run:
+    #: ``regen test``'s, ``regen whatif``'s and ``regen augment``'s.
     KEPT: ClassVar[tuple[str, ...]] = (LOCK, CACHE, f"{CACHE}-wal", f"{CACHE}-shm", f"{CACHE}-journal",
-                                       TESTS)
+                                       TESTS, WHATIF, AUGMENT)
 
     def clear(self) -> None:
-        """Remove the run's results for a fresh start: only what a run writes, and nothing at
+        """Remove the run's results for a fresh start: only what a run wrote, and nothing at
         all when the folder holds anything else (:func:`regen.runfolder.fresh.fresh_plan`)."""
         from regen.runfolder.fresh import fresh_plan
 
-        for p in fresh_plan(self):
-            if p.name == self.SCENARIOS and p.parent == self.path:
-                try:
-                    p.rmdir()  # empty now; a file that appeared meanwhile keeps it
-                except OSError:
-                    pass
-            elif p.is_dir() and not p.is_symlink():
+        plan = fresh_plan(self)
+        for p in plan.files:
+            if p.is_dir() and not p.is_symlink():  # a folder a domain's step wrote, as written.json says
                 shutil.rmtree(p)
             else:
                 p.unlink(missing_ok=True)
+        for p in plan.folders:
+            with contextlib.suppress(OSError):
+                p.rmdir()  # empty now; a file that appeared meanwhile keeps it
 
     def open(self, behavior: Behavior, settings: RunSettings, domain_settings: dict[str, str | None],
              *, fresh: bool = False) -> RunManifest:
@@ -399,5 +451,5 @@ def behavior_test_name(scenario: str, variant: int | str) -> str:
 
 
 __all__ = ["MAX_JSON_BYTES", "MAX_TEXT_CHARS", "Loaded", "RunFolder", "RunManifest", "RunSettings",
-           "ScenarioFolder", "behavior_test_name", "list_runs", "merge_usage", "now", "out_folder",
+           "ScenarioFolder", "behavior_test_name", "list_runs", "merge_usage", "now",
            "read_graph", "read_json", "read_model", "read_summary", "read_tests", "read_text"]

@@ -278,15 +278,18 @@ def prepare(scenario_dir: str | Path, edits: list[Edit]) -> tuple[Any, Scenario,
     for a folder that is not a scenario's or an edit that does not apply."""
     from regen import domains
     from regen.core.graph import CausePath
+    from regen.core.scenario import Scenario
     from regen.core.verdict import Verdict
     from regen.runfolder import ScenarioFolder, read_model
 
     src = ScenarioFolder(Path(scenario_dir).absolute())
-    scenario = src.scenario()
+    got = read_model(src / src.SCENARIO, Scenario, key="scenario")
     path = read_model(src / src.PATH, CausePath)
-    if scenario is None or not path.ok:
-        raise ConfigError(f"{src.path} is not a scenario folder with a readable scenario.json and path.json "
-                          "(give one of RUN/scenarios/<name>/)")
+    for name, loaded in ((src.SCENARIO, got), (src.PATH, path)):
+        if not loaded.ok:  # the file and what is wrong with it, not only the folder
+            raise ConfigError(f"{src / name} is {loaded.problem}: {src.path} is not a scenario folder with a "
+                              "readable scenario.json and path.json (give one of RUN/scenarios/<name>/)")
+    scenario = got.value
     if not edits:
         raise ConfigError("no edit: give --set, --remove, --add or --ask")
     backend = domains.make(scenario.domain)

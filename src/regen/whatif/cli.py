@@ -7,21 +7,17 @@ from pathlib import Path
 
 import typer
 from rich.console import Console
-from rich.markup import escape
 
-from regen.core.text import clean
 from regen.errors import ConfigError, RegenError
+from regen.pipeline.terminal import shown
+from regen.promises.folders import beside_run, out_folder, output_folder
+from regen.runfolder import RunFolder
 
 console = Console(highlight=False, soft_wrap=True)
 
 
 LLM_HELP = ("Model for --ask and the judge: local (offline default), local:<alias or .gguf>, "
             "openai:<model>, anthropic:<model> (keys as for regen generate)")
-
-
-def shown(value: object) -> str:
-    """Text for the terminal: cleaned of control characters, Rich markup escaped."""
-    return escape(clean(str(value)))
 
 
 def llm_options(llm: str, cache: str, replay: bool):
@@ -42,7 +38,8 @@ def whatif_command(
     ask: str | None = typer.Option(None, "--ask", help="A what-if question in words; the model answers with "
                                                        "edits, which are shown and recorded"),
     out: str | None = typer.Option(None, "--out", "-o", help="Folder for the counterfactual (default: "
-                                                             "RUN/whatif beside the scenario's run)"),
+                                                             "RUN/whatif of the scenario's run; needed for "
+                                                             "a scenario folder that is not inside a run)"),
     llm: str = typer.Option("local", "--llm", help=LLM_HELP),
     replay: bool = typer.Option(False, "--replay", help="Forbid model calls: cached answers only"),
     pictures: bool = typer.Option(True, "--pictures/--no-pictures", help="Draw the counterfactual's GIF"),
@@ -52,7 +49,7 @@ def whatif_command(
 ) -> None:
     """Counterfactual what-if: edit a scenario's cause chain, then ground, simulate and verify it again."""
     from regen import whatif
-    from regen.runfolder import ScenarioFolder, out_folder
+    from regen.runfolder import ScenarioFolder
 
     src = Path(scenario_dir)
     if not (src / ScenarioFolder.SCENARIO).is_file():
@@ -60,16 +57,19 @@ def whatif_command(
     edits = [whatif.parse_set(s) for s in set_]
     edits += [whatif.Edit(op="remove", entity=e.strip()) for e in remove]
     edits += [whatif.Edit(op="add", text=t.strip()) for t in add]
-    dest_root = out_folder(out) if out is not None else src.absolute().parent.parent / "whatif"
+    # outside a run there is no RUN/whatif: the folder two levels up is anybody's
+    dest_root = out_folder(out) if out is not None else beside_run(
+        src, RunFolder.WHATIF, manifest=RunFolder.MANIFEST, scenarios=RunFolder.SCENARIOS,
+        writes="the counterfactual")
     if not edits and not ask:
         raise ConfigError("no edit: give --set ENTITY.PROPERTY=VALUE, --remove ENTITY, --add 'CAUSE' or --ask 'QUESTION'")
     if edits:
         whatif.prepare(src, edits)  # a bad edit is told before any model loads or any file is written
+    output_folder(dest_root, given=out is not None, give="a folder for the counterfactual")
     by: str = "user"
     client = None
     if ask or judge:
-        dest_root.mkdir(parents=True, exist_ok=True)
-        client = llm_options(llm, str(dest_root / "llm-cache.sqlite"), replay)
+        client = llm_options(llm, str(dest_root / RunFolder.CACHE), replay)
     if ask:
         from regen import domains
 
@@ -101,7 +101,7 @@ def whatif_command(
         console.print(f"  stage {c['index']}: {shown(c['before'] or '—')} -> {shown(c['after'] or '—')}")
     console.print(f"wrote {shown(str(dest))} (whatif.json, whatif.html)")
     run = dest.parent.parent
-    if dest.parent.name == "whatif" and (run / "run.json").is_file():  # the run's report shows the pair
+    if dest.parent.name == RunFolder.WHATIF and (run / RunFolder.MANIFEST).is_file():  # the report shows the pair
         from regen.report import write_report
 
         try:

@@ -84,8 +84,8 @@ def test_removing_the_crossing_cyclist_leaves_the_stop_unexplained(tmp_path):
                     ("bicycle", {"behavior": ["cross_the_road"], "start_location": ["roadside_ahead"]}))
     out = run_path(cyclist, folder, pictures=False)
     assert out.verdict.feasible and out.verdict.causal.status == "caused", out.verdict.causal
-    res = CliRunner().invoke(app, ["whatif", str(folder), "--remove", "bicycle1", "--no-judge", "--no-pictures"],
-                             env={"COLUMNS": "200"})
+    res = CliRunner().invoke(app, ["whatif", str(folder), "--remove", "bicycle1", "--no-judge", "--no-pictures",
+                                   "--out", str(tmp_path / "whatif")], env={"COLUMNS": "200"})
     assert res.exit_code == 0, res.output
     dest = Path(next(ln for ln in res.output.splitlines() if ln.startswith("wrote ")).split()[1])
     record = json.loads((dest / "whatif.json").read_text())

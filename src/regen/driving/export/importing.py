@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import math
 import re
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
@@ -50,9 +49,11 @@ from regen.driving.world.setting import (
     RecordedEgo,
 )
 from regen.errors import ConfigError
+from regen.promises.files import parse_xml
 
 DT = 0.1  # [s] the simulation step
 MAX_DURATION = 60.0  # [s] a file without a stop time runs this long at most
+MIN_DURATION = 1.0  # [s] a shorter run shows no behavior
 EGO_NAMES = ("ego", "hero", "ego_vehicle", "egovehicle")
 MOVING = 0.5  # [m/s] an actor slower than this stands
 _VEHICLE_ASSET = {"car": "sedan", "van": "truck", "truck": "truck", "trailer": "truck", "semitrailer": "truck",
@@ -96,14 +97,19 @@ def _map(parsed: ParsedScenario) -> tuple[str, str, dict[str, tuple[str, float, 
         raise ConfigError(f"{parsed.path}: no <RoadNetwork><LogicFile>; regen import runs on the project's "
                           f"generated maps ({', '.join(GEOMETRIES)}): reference one")
     stem = re.sub(r"-v\d+$", "", f.stem)
-    if f.is_file():
-        raw = f.read_text(encoding="utf-8", errors="replace")
+    if f.exists():  # a folder or a special file too: said in one line by the promise
+        root = parse_xml(f, what=f"{parsed.path}: the map", give=f"reference a generated map ({', '.join(GEOMETRIES)}) "
+                         "by its name, or put its .xodr beside the file")
         try:
-            text, signals = without_signals(raw), signals_of(raw)
-        except ET.ParseError as exc:
-            raise ConfigError(f"{parsed.path}: the map {f.name} is not readable XML ({exc})") from None
+            signals, bad_signal = signals_of(root), ""
+        except ValueError as exc:
+            signals, bad_signal = {}, str(exc)
+        text = without_signals(root)
         for name in GEOMETRIES:
             if without_signals(ensure_map(name).read_text(encoding="utf-8")) == text:
+                if bad_signal:
+                    raise ConfigError(f"{parsed.path}: the map {f.name}: {bad_signal}; write each <signal>'s s and t "
+                                      "as numbers [m] (or remove the signal)")
                 extra = f" with {len(signals)} signal(s)" if signals else ""
                 return name, f"{f.name} is the generated map {name}{extra}", signals
         raise ConfigError(f"{parsed.path}: the map {f.name} is not one of the project's generated maps "
@@ -211,7 +217,10 @@ def import_xosc(path: str | Path, *, dt: float = DT) -> Scenario:
                           f"entity {' or '.join(EGO_NAMES[:3])} (or give it the property type = ego_vehicle)")
     ego = egos[0]
     map_name, map_words, map_signals = _map(parsed)
-    duration = min(parsed.stop_time or MAX_DURATION, MAX_DURATION)
+    duration = min(parsed.stop_time if parsed.stop_time is not None else MAX_DURATION, MAX_DURATION)
+    if duration < MIN_DURATION:
+        raise ConfigError(f"{parsed.path}: its <StopTrigger> ends the scenario at {parsed.stop_time:g} s; regen import "
+                          f"plays at least {MIN_DURATION:g} s: give a later SimulationTimeCondition")
     notes = [map_words]
     if parsed.stop_time is None:
         notes.append(f"no stop time: it runs {MAX_DURATION:g} s")

@@ -80,9 +80,28 @@ def with_signals(xodr_text: str, lights: list[Light]) -> tuple[str, dict[str, st
     return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n", ids
 
 
-def without_signals(xodr_text: str) -> str:
-    """The map's text without its ``<signals>`` blocks, normalised (for comparing maps)."""
-    root = ET.fromstring(xodr_text)
+def _root(xodr: str | ET.Element) -> ET.Element:
+    return ET.fromstring(xodr) if isinstance(xodr, str) else xodr
+
+
+def _number(el: ET.Element, key: str) -> float:
+    """The number in ``key`` of ``el`` (0 when absent); ValueError naming the element, the
+    attribute and the value when it is not a finite number."""
+    raw = el.get(key, "0")
+    try:
+        value = float(raw)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        shown = repr(raw if len(raw) <= 40 else raw[:40] + "...")
+        raise ValueError(f"<{el.tag} id={el.get('id', '')!r}> has {key}={shown}, not a finite number")
+    return value
+
+
+def without_signals(xodr: str | ET.Element) -> str:
+    """The map's text without its ``<signals>`` blocks, normalised (for comparing maps); a parsed
+    map (``xodr``: its root element) loses them in place."""
+    root = _root(xodr)
     for road in root.findall("road"):
         for sig in road.findall("signals"):
             road.remove(sig)
@@ -90,16 +109,18 @@ def without_signals(xodr_text: str) -> str:
     return ET.tostring(root, encoding="unicode")
 
 
-def signals_of(xodr_text: str) -> dict[str, tuple[str, float, float]]:
-    """Signal id -> (name, x, y) [m] of every signal on a straight reference line of the map."""
-    root = ET.fromstring(xodr_text)
+def signals_of(xodr: str | ET.Element) -> dict[str, tuple[str, float, float]]:
+    """Signal id -> (name, x, y) [m] of every signal on a straight reference line of the map
+    (its text or its root element); ValueError naming a signal or geometry whose ``s``, ``t``,
+    ``x``, ``y``, ``hdg`` or ``length`` is not a number."""
+    root = _root(xodr)
     out: dict[str, tuple[str, float, float]] = {}
     for road in root.findall("road"):
         lines = [g for g in road.findall("planView/geometry") if g.find("line") is not None]
         for sig in road.findall("signals/signal"):
-            s, t = float(sig.get("s", "0")), float(sig.get("t", "0"))
+            s, t = _number(sig, "s"), _number(sig, "t")
             for g in lines:
-                gx, gy, hdg, s0, length = (float(g.get(k, "0")) for k in ("x", "y", "hdg", "s", "length"))
+                gx, gy, hdg, s0, length = (_number(g, k) for k in ("x", "y", "hdg", "s", "length"))
                 if s0 <= s <= s0 + length:
                     a = s - s0
                     out[sig.get("id", "")] = (sig.get("name", ""), gx + a * math.cos(hdg) - t * math.sin(hdg),

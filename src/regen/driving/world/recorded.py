@@ -16,7 +16,6 @@ Imports: numpy and this domain's map constants only.
 
 from __future__ import annotations
 
-import csv
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -26,8 +25,12 @@ import numpy as np
 from regen.driving.world.egos.base import JUNCTION_CX
 from regen.driving.world.maps import JUNCTION_RADIUS
 from regen.errors import ConfigError
+from regen.promises.files import csv_rows, label, shown
 
 MAX_ABS_ACCEL = 12.0  # [m/s^2] beyond any car's braking or throttle, after smoothing
+MAX_ABS_VALUE = 1e12  # [m, s, rad, m/s] beyond any recording (a Unix time in seconds is 1.7e9)
+MIN_STEP = 1e-3  # [s] samples closer than this (over 1 kHz) are a unit mistake, not a recording
+MAX_DURATION = 600.0  # [s] a behavior takes seconds; a longer recording is cut to it first
 STILL = 0.5  # [m/s] below this the ego stands still
 JUNCTION_MAPS = ("four_way", "t_junction")
 
@@ -64,32 +67,31 @@ class Detection:
     evidence: list[str] = field(default_factory=list)
 
 
+_GIVE = "give a CSV file with a header t,x,y[,heading,speed] and one row per sample"
+
+
 def _bad(source: str, what: str) -> ConfigError:
     return ConfigError(f"trajectory {source}: {what}")
 
 
 def read_trajectory(path: str | Path) -> Trajectory:
-    """The trajectory in a CSV file; ConfigError with one line for every way it can be wrong."""
-    p = Path(path)
-    name = str(p)
-    try:
-        with p.open(newline="", encoding="utf-8") as fh:
-            rows = list(csv.reader(fh))
-    except (OSError, UnicodeDecodeError) as exc:
-        raise _bad(name, f"cannot be read ({exc}); give a CSV file with a header t,x,y") from None
-    rows = [r for r in rows if r and any(c.strip() for c in r)]
+    """The trajectory in a CSV file (UTF-8, with or without a spreadsheet's byte-order mark);
+    ConfigError with one line for every way it can be wrong. Rows are counted as the file's
+    lines, as a spreadsheet numbers them."""
+    name = label(path)
+    rows = csv_rows(path, what="trajectory", give=_GIVE)
     if not rows:
         raise _bad(name, "is empty; give a CSV with a header t,x,y[,heading,speed] and one row per sample")
-    head = [c.strip().lower() for c in rows[0]]
+    head = [c.strip().lower() for c in rows[0][1]]
     missing = [c for c in ("t", "x", "y") if c not in head]
     if missing:
-        raise _bad(name, f"has no column {', '.join(missing)} (its header: {','.join(head)}); the header must "
-                         "name t,x,y and may add heading,speed")
+        raise _bad(name, f"has no column {', '.join(missing)} (its header: {shown(','.join(head))}); the header "
+                         "must name t,x,y and may add heading,speed")
     body = rows[1:]
     if len(body) < 2:
         raise _bad(name, f"has {len(body)} row(s); a behavior needs at least two samples (10 Hz or faster)")
     cols: dict[str, list[float]] = {c: [] for c in head if c in ("t", "x", "y", "heading", "speed")}
-    for i, r in enumerate(body, start=2):
+    for i, r in body:
         if len(r) < len(head):
             raise _bad(name, f"row {i} has {len(r)} values, the header {len(head)}")
         for c in cols:
@@ -97,16 +99,27 @@ def read_trajectory(path: str | Path) -> Trajectory:
             try:
                 v = float(raw)
             except ValueError:
-                raise _bad(name, f"row {i}: {c} = {raw!r} is not a number") from None
+                raise _bad(name, f"row {i}: {c} = {shown(raw)} is not a number") from None
+            number = raw if len(raw) <= 40 else raw[:40] + "..."  # float() took it: digits, no control characters
             if not math.isfinite(v):
-                raise _bad(name, f"row {i}: {c} = {raw} is not finite (NaN or inf); remove or fill the sample")
+                raise _bad(name, f"row {i}: {c} = {number} is not finite (NaN or inf); remove or fill the sample")
+            if abs(v) > MAX_ABS_VALUE:
+                raise _bad(name, f"row {i}: {c} = {number} is beyond {MAX_ABS_VALUE:g}; give metres, seconds, "
+                                 "radians and m/s")
             cols[c].append(v)
     t = np.asarray(cols["t"])
     dt = np.diff(t)
     if (dt <= 0).any():
-        k = int(np.flatnonzero(dt <= 0)[0]) + 3
-        raise _bad(name, f"time does not increase at row {k} (t = {t[k - 2]:g} after {t[k - 3]:g}); sort the rows "
-                         "by t and remove repeated samples")
+        k = int(np.flatnonzero(dt <= 0)[0]) + 1
+        raise _bad(name, f"time does not increase at row {body[k][0]} (t = {t[k]:g} after {t[k - 1]:g}); sort the "
+                         "rows by t and remove repeated samples")
+    if (dt < MIN_STEP).any():
+        k = int(np.flatnonzero(dt < MIN_STEP)[0]) + 1
+        raise _bad(name, f"row {body[k][0]} is {dt[k - 1]:g} s after the one before; samples must be at least "
+                         f"{MIN_STEP:g} s apart (t in seconds)")
+    if t[-1] - t[0] > MAX_DURATION:
+        raise _bad(name, f"spans {t[-1] - t[0]:g} s; a behavior takes seconds: cut the recording to at most "
+                         f"{MAX_DURATION:g} s around it (t in seconds)")
     traj = Trajectory(t=t, x=np.asarray(cols["x"]), y=np.asarray(cols["y"]),
                       heading=np.asarray(cols["heading"]) if "heading" in cols else None,
                       speed=np.asarray(cols["speed"]) if "speed" in cols else None, source=name)

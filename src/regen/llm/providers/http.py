@@ -15,11 +15,13 @@ import httpx
 from regen.errors import ConfigError, MissingAPIKeyError, ProviderResponseError
 from regen.llm.base import RetryableError
 from regen.llm.sanitize import clean_text, shorten
+from regen.promises.secrets import redact, remember, secrets_of
 
 DEFAULT_TIMEOUT = 120.0  # [s] per request, from connecting to the last byte of the reply
 TIMEOUT_VAR = "REGEN_LLM_TIMEOUT"  # overrides DEFAULT_TIMEOUT; an explicit timeout wins
 MAX_REPLY_BYTES = 32_000_000  # a longer reply is refused instead of read into memory
 SNIPPET_CHARS = 300  # how much of a bad reply an error message quotes
+_REDACTED_CHARS = 4 * SNIPPET_CHARS  # how much of it is redacted, before it is cut to SNIPPET_CHARS
 
 
 def request_timeout(explicit: float | None) -> float:
@@ -56,9 +58,12 @@ def token_count(usage: Any, key: str) -> int:
     return max(0, int(value))
 
 
-def snippet(text: str) -> str:
-    """Part of a server's reply for an error message, on one line without control characters."""
-    return shorten(" ".join(clean_text(text).split()), SNIPPET_CHARS)
+def snippet(text: str, secrets: list[str] | None = None) -> str:
+    """Part of a server's reply for an error message, on one line without control characters,
+    redacted of ``secrets`` (:func:`regen.promises.secrets.secrets_of`, the request's) and of
+    anything that looks like a credential before it is cut (a cut key is still redacted)."""
+    one_line = " ".join(clean_text(text).split())
+    return shorten(redact(one_line[:_REDACTED_CHARS], secrets or ()), SNIPPET_CHARS)
 
 
 def post_json(client: httpx.Client, url: str, body: dict[str, Any], headers: dict[str, str], *,
@@ -70,7 +75,24 @@ def post_json(client: httpx.Client, url: str, body: dict[str, Any], headers: dic
     raise :class:`RetryableError` (retried by the caller); 401/403 raise
     :class:`MissingAPIKeyError` with ``refused(status)``; other 4xx, a body that is not JSON and
     one longer than :data:`MAX_REPLY_BYTES` raise :class:`ProviderResponseError` naming ``who``.
+    Every message is redacted of the secrets the request carried (its header values and URL
+    parameters, :mod:`regen.promises.secrets`); so is the reply text returned, which callers
+    quote only in messages.
     """
+    secrets = secrets_of(headers, url)
+    remember(*secrets)  # an error made of this request's reply anywhere later is redacted too
+    try:
+        text, data = _exchange(client, url, body, headers, who=who, timeout=timeout, refused=refused,
+                               retry_status=retry_status, secrets=secrets)
+    except (RetryableError, MissingAPIKeyError, ProviderResponseError) as exc:
+        exc.args = tuple(redact(a, secrets, credentials=False) if isinstance(a, str) else a for a in exc.args)
+        raise
+    return redact(text[:_REDACTED_CHARS], secrets), data
+
+
+def _exchange(client: httpx.Client, url: str, body: dict[str, Any], headers: dict[str, str], *,
+              who: str, timeout: float, refused: Callable[[int], str], retry_status: tuple[int, ...],
+              secrets: list[str]) -> tuple[str, Any]:
     deadline = time.monotonic() + timeout
     try:
         with client.stream("POST", url, json=body, headers=headers) as resp:
@@ -90,7 +112,7 @@ def post_json(client: httpx.Client, url: str, body: dict[str, Any], headers: dic
     except httpx.TransportError as exc:
         raise RetryableError(f"cannot reach {who} ({type(exc).__name__}: {exc})") from None
     except (httpx.HTTPError, httpx.InvalidURL) as exc:  # a broken encoding, a bad URL
-        raise ProviderResponseError(f"{who}: {type(exc).__name__}: {snippet(str(exc))}") from None
+        raise ProviderResponseError(f"{who}: {type(exc).__name__}: {snippet(str(exc), secrets)}") from None
     data = b"".join(chunks)
     text = data.decode("utf-8", "replace")
     if status in retry_status or status >= 500:
@@ -98,8 +120,8 @@ def post_json(client: httpx.Client, url: str, body: dict[str, Any], headers: dic
     if status in (401, 403):
         raise MissingAPIKeyError(refused(status))
     if status >= 400:
-        raise ProviderResponseError(f"{who} answered HTTP {status}: {snippet(text)}")
+        raise ProviderResponseError(f"{who} answered HTTP {status}: {snippet(text, secrets)}")
     try:
         return text, json.loads(data)
     except (ValueError, RecursionError):
-        raise ProviderResponseError(f"{who} sent a reply that is not JSON: {snippet(text)}") from None
+        raise ProviderResponseError(f"{who} sent a reply that is not JSON: {snippet(text, secrets)}") from None

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import httpx
 
+from regen.promises.secrets import remember
+
 
 def _origin(url: str) -> tuple[str, str, int | None] | None:
     try:
@@ -41,9 +43,12 @@ class Key:
 def pick_key(explicit: str | None, url: str, *, official: str, official_var: str,
              custom_var: str) -> Key:
     """The key for a call to ``url``: the explicit argument if given (the caller chose both), else
-    ``official_var`` for the official endpoint, else ``custom_var`` (or none) for any other URL."""
+    ``official_var`` for the official endpoint, else ``custom_var`` (or none) for any other URL.
+    The key is remembered as a secret: every error message is redacted of it."""
     if explicit:
+        remember(explicit)  # never printed, logged or stored (regen.promises.secrets)
         return Key(explicit, "the api_key argument")
     var = official_var if is_official(url, official) else custom_var
     value = os.environ.get(var) or None
+    remember(value)
     return Key(value, var if value else "")
