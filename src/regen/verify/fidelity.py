@@ -20,9 +20,10 @@ behaviors and states are compared with what each cause event's words name:
    not show grandma).
 
 A mismatch makes the verdict ``unfaithful`` (not feasible), with what the text names and what
-the scenario shows. Where the text names no asset, rules cannot decide: a yes/no model question
-(:func:`ask_model`, at grounding) decides and is recorded as such; without a model the fidelity
-is ``undecided`` and the verdict stays what the monitor said.
+the scenario shows. Where the text names no asset, rules cannot decide: yes/no model questions
+(:func:`ask_model`, at grounding: one per entity that may show the cause, with its states) decide
+and are recorded as such; without a model the fidelity is ``undecided`` and the verdict stays
+what the monitor said. The judge's labeled set and its figures: ``benchmarks/fidelity_judge.py``.
 
 Imports: the shared core, embeddings, assets and llm; no domain.
 """
@@ -161,16 +162,56 @@ class _Shows(Answer):
     answer: Literal["yes", "no"]
 
 
+#: properties that are no state of an entity: where it is, how fast it starts, what part it plays
+_NOT_STATES = ("behavior", "start_location", "target_speed", "location", "role")
+
+
+def _may_show(e: Entity) -> bool:
+    """Whether an entity may show a cause: not the robot, nor what a domain's ``role`` property
+    marks as the robot's task or its stage (manipulation: the furniture it acts on, the item it
+    moves, the table; only its ``context`` entities stand for the world)."""
+    return e.kind != "robot" and e.properties.get("role", "context") == "context"
+
+
+def _thing(e: Entity) -> str:
+    """An entity as the judge is shown it: its asset in words, its motion if it has one, and its
+    states ('desk lamp (power = off)')."""
+    moves = [e.behavior] if e.behavior and e.behavior not in ("stationary", IMPORTED) else []
+    states = [f"{k} = {v}" for k, v in e.properties.items() if k not in _NOT_STATES]
+    said = "; ".join(filter(None, [", ".join(moves), ", ".join(states)]))
+    return e.asset.replace("_", " ") + (f" ({said})" if said else "")
+
+
 def ask_model(scenario: Scenario, llm: LLM, *, robot: str, system: str | None = None) -> Fidelity:
-    """The yes/no question for a cause whose words name no asset: does this cast show it?"""
-    cast = [_shown(e) for e in scenario.entities if e.kind != "robot"]
+    """Where the cause's words name no asset: does some entity of the scene show the cause?
+
+    One yes/no question per entity that may show it (:func:`_may_show`), each shown alone with
+    its states: the offline model calls almost any scene shown whole 'shown', but tells one
+    thing that the cause is about (a pet for 'something furry scratches to come in') from one it
+    is not (a cup; a desk lamp that is off for a painting to be shown off) far better. The scene
+    shows the cause when one answer is yes. A scene with no such entity (only the robot and its
+    task's own objects) does not, by rule: no model is asked."""
+    shown = [_shown(e) for e in scenario.entities if e.kind != "robot"]
     cause = "; ".join(scenario.causal_graph[:-1] or scenario.causal_graph)
-    prompt = render("regen.verify", "fidelity", cause=cause, cast=cast, robot=robot)
-    got = llm.ask(prompt, _Shows, purpose="fidelity", system=system)
-    yes = got.value.answer == "yes"
-    return Fidelity(status="faithful" if yes else "unfaithful", by="model", call_id=got.call_id,
-                    shown=cast, reason=("the model judged that " + ", ".join(cast)
-                                        + (" show" if yes else " do not show") + f": {cause}"))
+    things = [e for e in scenario.entities if _may_show(e)]
+    if not things:
+        return Fidelity(status="unfaithful", by="rule", shown=shown,
+                        reason=f"the scene shows nothing but the {robot} and its task's own objects, "
+                               f"so nothing that could show: {cause}")
+
+    def ask(e: Entity):
+        prompt = render("regen.verify", "fidelity", robot=robot, task=scenario.behavior.text, cause=cause,
+                        thing=_thing(e))
+        return llm.ask(prompt, _Shows, purpose="fidelity", system=system)
+
+    answers = llm.map(ask, things)
+    yes = [(e, got) for e, got in zip(things, answers, strict=True) if got.value.answer == "yes"]
+    if yes:
+        return Fidelity(status="faithful", by="model", call_id=yes[0][1].call_id, shown=shown,
+                        reason=f"the model judged that {', '.join(_thing(e) for e, _ in yes)} "
+                               f"{'shows' if len(yes) == 1 else 'show'}: {cause}")
+    return Fidelity(status="unfaithful", by="model", call_id=answers[-1].call_id, shown=shown,
+                    reason=f"the model judged that none of {', '.join(_thing(e) for e in things)} shows: {cause}")
 
 
 def combine(rules: Fidelity, earlier: Fidelity | None) -> Fidelity:
