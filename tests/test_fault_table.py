@@ -443,12 +443,17 @@ def _test_folder(case: Case, folder: Path) -> list[str]:
     return ["test", str(folder), "--policy", "aeb", "--out", str(case.out)]
 
 
-def _test_not_a_run(case: Case) -> list[str]:
+def _users_folder(case: Case) -> Path:
+    """A folder of the user's own data, not a run (named in the expected error)."""
     folder = case.inputs / "mine"
     (folder / "data").mkdir(parents=True)
     (folder / "data" / "keep.csv").write_text("a,b\n1,2\n")
     case.names = str(folder)
-    return _test_folder(case, folder)
+    return folder
+
+
+def _test_not_a_run(case: Case) -> list[str]:
+    return _test_folder(case, _users_folder(case))
 
 
 def _test_killed(case: Case) -> list[str]:
@@ -624,11 +629,7 @@ def _texts(case: Case) -> Path:
 
 
 def _eval_not_a_run(case: Case) -> list[str]:
-    folder = case.inputs / "mine"
-    (folder / "data").mkdir(parents=True)
-    (folder / "data" / "keep.csv").write_text("a,b\n1,2\n")
-    case.names = str(folder)
-    return _eval_args(case, folder)
+    return _eval_args(case, _users_folder(case))
 
 
 EVAL = Command((), {

@@ -19,12 +19,16 @@ from __future__ import annotations
 
 import json
 import re
+import sys
 from pathlib import Path
 
 import pytest
 from typer.testing import CliRunner
 
 from regen.cli import app
+
+sys.path.insert(0, str(Path(__file__).parent))  # the tests folder is not a package
+from test_cli_faults import _one_line_error  # noqa: E402
 
 HAND = Path(__file__).parent / "data" / "xosc" / "pedestrian_crossing.xosc"
 WALKER_START = '<WorldPosition x="-100.0" y="-8.0" z="0.0" h="1.5708"/>'
@@ -40,18 +44,6 @@ TRAJECTORY = """<RoutingAction><FollowTrajectoryAction>
 
 def _cli(*args: str):
     return CliRunner().invoke(app, list(args), env={"COLUMNS": "300"})
-
-
-def _one_line_error(res, *says: str) -> str:
-    """The output is exactly one 'error: ...' line holding every phrase of ``says``, exit 2."""
-    assert res.exit_code == 2, (res.exit_code, res.output, res.exception)
-    assert "Traceback" not in res.output
-    lines = [ln for ln in res.output.splitlines() if ln.strip()]
-    assert len(lines) == 1, res.output
-    assert lines[0].startswith("error: "), res.output
-    for phrase in says:
-        assert phrase in lines[0], (phrase, lines[0])
-    return lines[0]
 
 
 def _xosc(tmp_path: Path, name: str, text: str) -> Path:

@@ -71,7 +71,9 @@ def braking_states(a: str, t: EgoTemplate) -> RuleStates:
 
 
 def brake_trigger(placed: Placed) -> Trigger | None:
-    """It brakes as the ego comes near where it brakes in the template."""
+    """It brakes as the ego comes near where it brakes in the template, or (a lead the waiting
+    ego follows) departs at its time: :func:`~regen.driving.world.triggers.approach` makes that a
+    time trigger."""
     ego, p = placed.ego, placed.params
     if "t" not in p:
         return None

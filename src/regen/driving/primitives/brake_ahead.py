@@ -19,7 +19,6 @@ from regen.driving.world.plan import ActorPlan
 
 def _constrain(m: PlacementModel, a: ActorSpec, speeds: tuple[float, float]) -> None:
     s, v = m.start(a, speeds)
-    _lanes.s_at_event(m, a, s, v)
     e = m.ego
     if e.stops:
         _lead.brakes_to_a_stop(m, a, s, v)

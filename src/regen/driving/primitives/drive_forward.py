@@ -133,12 +133,6 @@ def _no_trigger(placed: Placed) -> Trigger | None:
     return None
 
 
-def _leading_trigger(placed: Placed) -> Trigger | None:
-    """It brakes as the ego comes near where it brakes in the template, or departs at its time
-    before the waiting ego (:func:`~regen.driving.world.triggers.approach` makes that a time trigger)."""
-    return _lead.brake_trigger(placed)
-
-
 def _following_trigger(placed: Placed) -> Trigger | None:
     """It brakes its reaction time after the ego brakes hard (measured from the ego's speed)."""
     return ego_slower(placed.ego) if placed.ego.stops else None
@@ -172,7 +166,7 @@ class _Start:
 # start location -> what it does from there (in the order offered)
 _STARTS: dict[str, _Start] = {
     "ahead_same_lane": _Start(constrain=_leads, states=_leading_states, timing=_leading_timing,
-                              trigger=_leading_trigger),
+                              trigger=_lead.brake_trigger),
     "behind_same_lane": _Start(constrain=_follows, states=_following_states, timing=_following_timing,
                                trigger=_following_trigger),
     "ahead_adjacent_lane": _Start(constrain=_next_lane_ahead, states=_next_lane_states),
