@@ -16,7 +16,7 @@ import tempfile
 from pathlib import Path
 
 from regen.core import Behavior, CausePath, PathEntity
-from regen.manipulation.behaviors import BEHAVIORS
+from regen.manipulation.world.tasks import BEHAVIORS
 from regen.pipeline import run_path
 
 # three contexts per behavior: (cause, context assets)

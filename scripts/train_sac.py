@@ -12,9 +12,9 @@ import argparse
 import time
 
 from regen.core import Behavior, CausePath, PathEntity
-from regen.manipulation.grounding import ground_path
-from regen.manipulation.rl import train_sac
-from regen.manipulation.simulate import rollout
+from regen.manipulation.grounding.ground import ground_path
+from regen.manipulation.simulation.run import rollout
+from regen.manipulation.simulation.sac import train_sac
 from regen.verify import check_fsm
 
 CONTEXTS = [

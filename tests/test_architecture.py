@@ -71,6 +71,25 @@ def test_driving_holds_only_its_stages() -> None:
         assert doc.startswith('"""') and "Imports" in doc, stage
 
 
+MANIPULATION_STAGES = {"world", "grounding", "simulation", "verify", "render", "testing", "gym"}
+
+
+def test_manipulation_holds_only_its_stages() -> None:
+    import ast
+
+    here = SRC / "manipulation"
+    modules = {p.name for p in here.glob("*.py")}
+    packages = {p.name for p in here.iterdir() if p.is_dir() and (p / "__init__.py").exists()}
+    assert modules == {"__init__.py", "backend.py", "assets.py"}
+    assert packages == MANIPULATION_STAGES
+    for stage in packages:  # each says what it holds and what it may import, and defines nothing
+        doc = (here / stage / "__init__.py").read_text()
+        assert doc.startswith('"""') and "Imports" in doc, stage
+        defined = [n for n in ast.walk(ast.parse(doc))
+                   if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef))]
+        assert not defined, stage
+
+
 def test_no_source_file_over_500_lines() -> None:
     long = {str(p.relative_to(SRC)): n for p in SRC.rglob("*.py")
             if (n := len(p.read_text(encoding="utf-8").splitlines())) > 500}

@@ -210,7 +210,7 @@ def test_bad_edits_are_one_line(front_car, tmp_path, args, words):
 
 def test_a_manipulation_context_removed_leaves_the_task_unexplained(tmp_path):
     from regen.core import Behavior, CausePath, PathEntity
-    from regen.manipulation.behaviors import BEHAVIORS
+    from regen.manipulation.world.tasks import BEHAVIORS
 
     b = BEHAVIORS["open_door"]
     pet = CausePath(behavior=Behavior(text=b.text, domain="manipulation", params={"reward": b.id}),

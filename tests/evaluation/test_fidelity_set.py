@@ -13,7 +13,7 @@ from regen.driving.world.egos import EGO_TEMPLATES
 from regen.errors import ConfigError
 from regen.evaluation.fidelity import score, table
 from regen.evaluation.fidelity_set import load_cases, packaged_sets
-from regen.manipulation.behaviors import BEHAVIORS
+from regen.manipulation.world.tasks import BEHAVIORS
 
 # assets and motion primitives the labels name that the databases do not define yet: a case
 # that needs one counts as a miss until a database can play it

@@ -84,7 +84,7 @@ def test_a_manipulation_cause_never_takes_the_task_object_for_its_entity() -> No
     (path,) = g.paths()
     assert [e.asset for e in path.entities] == ["pet"]
     # grounded, the pet is a context entity outside the door, its placement a cause state
-    from regen.manipulation.grounding import ground_path
+    from regen.manipulation.grounding.ground import ground_path
 
     sc = ground_path(path)
     pet1 = sc.entity("pet1")

@@ -7,8 +7,8 @@ def door_scenario(choices: dict[str, tuple[str, str]], assets: list[str], seed: 
     """'the robot opens the door' grounded by the rules, with ``choices`` (entity -> (relation,
     reference)) fixed and nothing relaxed."""
     from regen.core import Behavior, CausePath, PathEntity
-    from regen.manipulation.behaviors import BEHAVIORS
-    from regen.manipulation.grounding import ground_path
+    from regen.manipulation.grounding.ground import ground_path
+    from regen.manipulation.world.tasks import BEHAVIORS
 
     b = BEHAVIORS["open_door"]
     path = CausePath(behavior=Behavior(text=b.text, domain="manipulation", params={"reward": b.id}),

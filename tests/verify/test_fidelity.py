@@ -160,8 +160,8 @@ def _door(event: str, assets: list[str], properties: dict[str, dict[str, list[st
     """'the robot opens the door' because of ``event``, grounded by the rules with ``assets``
     (and the graph's ``properties`` of some of them)."""
     from regen.core import Behavior, CausePath, PathEntity
-    from regen.manipulation.behaviors import BEHAVIORS
-    from regen.manipulation.grounding import ground_path
+    from regen.manipulation.grounding.ground import ground_path
+    from regen.manipulation.world.tasks import BEHAVIORS
 
     b = BEHAVIORS["open_door"]
     path = CausePath(behavior=Behavior(text=b.text, domain="manipulation", params={"reward": b.id}),

@@ -19,8 +19,8 @@ from regen.core.scenario import FSM, Entity, Scenario
 from regen.llm import LLM
 from regen.llm.cache import CallCache
 from regen.llm.testing import FunctionProvider
-from regen.manipulation.behaviors import BEHAVIORS
-from regen.manipulation.grounding import ground_path
+from regen.manipulation.grounding.ground import ground_path
+from regen.manipulation.world.tasks import BEHAVIORS
 from regen.verify.fidelity import ask_model
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "support"))

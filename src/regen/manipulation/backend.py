@@ -13,8 +13,8 @@ from regen.core.verdict import Verdict
 from regen.core.words import name_words
 from regen.errors import ConfigError, SimulationError
 from regen.manipulation.assets import RESOURCE
-from regen.manipulation.behaviors import BEHAVIORS, resolve
-from regen.manipulation.setting import ManipulationParams
+from regen.manipulation.world.setting import ManipulationParams
+from regen.manipulation.world.tasks import BEHAVIORS, resolve
 
 
 class ManipulationBackend(DomainBackend):
@@ -23,7 +23,7 @@ class ManipulationBackend(DomainBackend):
     name = "manipulation"
     database_resource = RESOURCE
     gym_envs = {"regen/Manipulation-v0": "regen.manipulation.gym.env:ManipulationEnv"}
-    predicates_module = "regen.manipulation.predicates"
+    predicates_module = "regen.manipulation.verify.predicates"
     params_model = ManipulationParams
     edge_examples = ("regen.manipulation", "data/edges_example.jsonl")
     wording = Wording(
@@ -124,12 +124,12 @@ class ManipulationBackend(DomainBackend):
         return {"reward": resolve(self.params(behavior).reward, behavior.text).id}
 
     def ground(self, path: CausePath, llm, *, seed: int = 0) -> Scenario:
-        from regen.manipulation.grounding import ground_path
+        from regen.manipulation.grounding.ground import ground_path
 
         return ground_path(path, llm, seed=seed)
 
     def simulate(self, scenario: Scenario, workdir: Path) -> SimulationOutput:
-        from regen.manipulation.simulate import rollout
+        from regen.manipulation.simulation.run import rollout
 
         if scenario.solver.status == "infeasible":
             raise SimulationError("the scenario's placement is infeasible: "
@@ -159,6 +159,6 @@ class ManipulationBackend(DomainBackend):
         return ManipulationHarness()
 
     def render(self, scenario: Scenario, trace: Trace, verdict: Verdict, out_dir: Path) -> dict[str, Path]:
-        from regen.manipulation.render import render_run
+        from regen.manipulation.render.view import render_run
 
         return render_run(scenario, trace, verdict, out_dir)

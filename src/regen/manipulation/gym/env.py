@@ -26,7 +26,7 @@ Observation: a float32 vector of :data:`OBS_SIZE` (every value clipped to ``[-LI
 94      time left in the episode [s]
 ====== ================================================================================
 
-Reward per step: the behavior's dense reward (:mod:`regen.manipulation.behaviors`: RoboGen
+Reward per step: the behavior's dense reward (:mod:`regen.manipulation.world.tasks`: RoboGen
 style, e.g. ``-|hand - handle| - 2 |opening - goal|``) minus ``collision_penalty`` when the arm
 touches a person or a pet (the episode terminates), plus ``success_bonus`` when a joint task's
 goal opening is reached (the episode terminates). Truncated at the scenario's duration.
@@ -186,7 +186,7 @@ class ManipulationEnv(gym.Env):
         return self._encode(obs), reward, terminated, truncated, info
 
     def _success(self, obs: Observation) -> bool:
-        from regen.manipulation.rl import success
+        from regen.manipulation.simulation.sac import success
 
         a = obs.object(obs.task.target).articulation
         try:

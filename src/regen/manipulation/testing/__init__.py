@@ -9,6 +9,6 @@ and ``harness`` (:class:`~regen.manipulation.testing.harness.ManipulationHarness
 :class:`regen.harness.contract.PolicyHarness`: oracle stages, incidents, template check,
 failure pictures).
 
-Imports: every lower manipulation stage (scene up to render), ``regen.verify`` and the shared
+Imports: every lower manipulation stage (world up to render), ``regen.verify`` and the shared
 harness contract and timeout; nothing imports this package but the backend and the gym env.
 """

@@ -26,9 +26,9 @@ import numpy as np
 from regen.core.scenario import Scenario, StateRef
 from regen.core.trace import Trace
 from regen.harness.contract import Episode, Incident, PolicyHarness, TemplateRun, wire_numbers
-from regen.manipulation.setting import ManipulationWorld
 from regen.manipulation.testing import loop, policies, variants
 from regen.manipulation.testing.types import Action, as_action
+from regen.manipulation.world.setting import ManipulationWorld
 
 DISPLACE_TOL = 0.05  # [m] horizontal displacement of a context object that fails the test
 TILT_TOL = 0.35  # [rad] tilt of a context object that counts as knocked over
@@ -114,10 +114,10 @@ class ManipulationHarness(PolicyHarness):
         return variants.sample_variants(scenario, n, seed, extremes=extremes)
 
     def check_template(self, scenario: Scenario) -> TemplateRun:
-        """The scripted rollout (:func:`regen.manipulation.simulate.rollout`, context fixed as in
+        """The scripted rollout (:func:`regen.manipulation.simulation.run.rollout`, context fixed as in
         ``regen generate``) verified by the backend's monitor, with its contacts recorded."""
         from regen import domains
-        from regen.manipulation.simulate import rollout
+        from regen.manipulation.simulation.run import rollout
 
         backend = domains.make(scenario.domain)
         try:
@@ -137,7 +137,7 @@ class ManipulationHarness(PolicyHarness):
         from PIL import ImageDraw
 
         from regen import media
-        from regen.manipulation.render import GIF_FRAME_MS, render_frames
+        from regen.manipulation.render.view import GIF_FRAME_MS, render_frames
 
         trace = episode.trace
         if trace is None or not trace.times:

@@ -1,6 +1,6 @@
 """A manipulation policy in the loop: the Panda of a grounded scenario driven by a policy.
 
-The scene is built as :func:`regen.manipulation.simulate.rollout` builds it, except that the
+The scene is built as :func:`regen.manipulation.simulation.run.rollout` builds it, except that the
 context objects are free bodies with plausible masses (:data:`CONTEXT_MASS`), so an arm that
 pushes one displaces or knocks it over instead of meeting an immovable wall; the scripted
 rollout keeps them fixed. Every :data:`~regen.manipulation.testing.types.POLICY_DT` the policy
@@ -26,11 +26,12 @@ from regen.core.trace import Trace
 from regen.errors import SimulationError
 from regen.harness.contract import Episode, Policy
 from regen.harness.timeout import PolicyFailure, call_with_timeout, reset_policy
-from regen.manipulation.behaviors import BehaviorDef
-from regen.manipulation.controller import CONTROL_EVERY, Controller
-from regen.manipulation.scene import ARM_JOINTS, EE_LINK, FINGER_JOINTS, Scene, SceneLayout
-from regen.manipulation.setting import ManipulationWorld
-from regen.manipulation.simulate import Recorder, Roles, layout_from_scenario
+from regen.manipulation.simulation.arm import CONTROL_EVERY
+from regen.manipulation.simulation.controller import Controller
+from regen.manipulation.simulation.layout import ARM_JOINTS, EE_LINK, FINGER_JOINTS, SceneLayout
+from regen.manipulation.simulation.record import Recorder
+from regen.manipulation.simulation.run import Roles, layout_from_scenario
+from regen.manipulation.simulation.scene import Scene
 from regen.manipulation.testing.types import (
     GRASP_RADIUS,
     GRIPPER_CLOSE,
@@ -45,6 +46,8 @@ from regen.manipulation.testing.types import (
     Task,
     as_action,
 )
+from regen.manipulation.world.setting import ManipulationWorld
+from regen.manipulation.world.tasks import BehaviorDef
 
 STEP_TIMEOUT = 1.0  # default wall time a policy may take per step [s]
 SETTLE = 0.25  # [s] dynamic bodies settle before the first policy call (as the scripted rollout)
@@ -72,7 +75,7 @@ class Prepared:
 
 def _approach(behavior: BehaviorDef) -> str:
     """The hand orientation the scripted controller uses for the behavior throughout."""
-    from regen.manipulation.urdf import furniture
+    from regen.manipulation.world.furniture import furniture
 
     if behavior.script == "articulate":
         return furniture(behavior.furniture).approach
@@ -176,7 +179,7 @@ class Session:
         robot = RobotState(q=tuple(float(st[0]) for st in states), qd=tuple(float(st[1]) for st in states),
                            ee_position=tuple(float(v) for v in ee[4]),
                            ee_orientation=tuple(float(v) for v in ee[5]),
-                           ee_target=tuple(float(v) for v in self.ctl._target),
+                           ee_target=tuple(float(v) for v in self.ctl.target),
                            gripper_width=float(states[-1][0] + states[-2][0]),
                            gripper_closed=self.closed, holding=self.ctl.holding)
         objects = []
@@ -231,7 +234,7 @@ class Session:
             ctl.release()
             self._free_item()
         self.closed = close
-        start = np.asarray(ctl._target, dtype=float)
+        start = np.asarray(ctl.target, dtype=float)
         goal = np.clip(start + action.delta, *WORKSPACE)
         ee = np.asarray(self.scene.ee_position())
         off = goal - ee
@@ -239,7 +242,7 @@ class Session:
         if dist > LEASH:  # a blocked hand: the set-point waits for it
             goal = ee + off / dist * LEASH
         for k in range(1, TICKS + 1):
-            ctl._target = start + (goal - start) * k / TICKS
+            ctl.target = start + (goal - start) * k / TICKS
             ctl.tick()
 
     def trace(self) -> Trace:

@@ -2,13 +2,15 @@
 
 Built in (:data:`BUILTIN`):
 
-- ``scripted``: the scripted controller (:mod:`regen.manipulation.scripted`) rewritten as a
+- ``scripted``: the scripted controller (:mod:`regen.manipulation.simulation.scripted`) rewritten
+  as a
   closed-loop policy over the observation alone: the same primitive sequence (approach the
   handle, grasp, drag it along its joint, let go, back off; press a switch; pick and place),
   the same speeds and tolerances. It sees nothing the observation does not hold.
 - ``random``: uniform set-point displacements within the limits and a random gripper command
   each step (seeded, the same every episode): the baseline that should fail.
-- ``sac``: the trained SAC policy of :mod:`regen.manipulation.rl` for the scenario's behavior
+- ``sac``: the trained SAC policy of :mod:`regen.manipulation.simulation.sac` for the scenario's
+  behavior
   (joint behaviors; needs the ``rl`` extra and a model trained by ``scripts/train_sac.py``).
 
 :func:`load_policy` resolves a SPEC: a built-in name, ``module:callable`` or
@@ -26,7 +28,7 @@ import numpy as np
 from regen.errors import ConfigError
 from regen.manipulation.testing.types import MAX_STEP, POLICY_DT, Action, Observation
 
-MOVE_SPEED = 0.35  # [m/s] as regen.manipulation.controller.MOVE_SPEED
+MOVE_SPEED = 0.35  # [m/s] as regen.manipulation.simulation.arm.MOVE_SPEED
 LEAD = 0.03  # [m] how far ahead of the handle the drag aims (as the controller)
 JOINT_RATE = 0.5  # [rad/s] slowest drag along an arc (as the controller)
 
@@ -151,8 +153,8 @@ def _ee(obs: Observation) -> np.ndarray:
 
 
 def _plan(obs: Observation) -> list[_Phase]:
-    """The scripted controller's sequence for the task (regen.manipulation.scripted)."""
-    from regen.manipulation.behaviors import get_behavior
+    """The scripted controller's sequence for the task (regen.manipulation.simulation.scripted)."""
+    from regen.manipulation.world.tasks import get_behavior
 
     task = obs.task
     behavior = get_behavior(task.behavior)
@@ -241,9 +243,9 @@ class RandomPolicy:
 
 
 class SACPolicy:
-    """The trained SAC model of the scenario's behavior (:mod:`regen.manipulation.rl`): its
-    observation (hand, handle, opening) and its action (hand displacement of up to
-    ``rl.ACTION_SCALE`` [m] per axis, hand closed) in this loop's terms."""
+    """The trained SAC model of the scenario's behavior (:mod:`regen.manipulation.simulation.sac`):
+    its observation (hand, handle, opening) and its action (hand displacement of up to
+    ``sac.ACTION_SCALE`` [m] per axis, hand closed) in this loop's terms."""
 
     def __init__(self) -> None:
         try:
@@ -264,9 +266,7 @@ class SACPolicy:
         return sorted(cache_dir("policies").glob(f"sac_{behavior}_*.zip"))
 
     def __call__(self, obs: Observation) -> Action:
-        from stable_baselines3 import SAC
-
-        from regen.manipulation.rl import ACTION_SCALE
+        from regen.manipulation.simulation.sac import ACTION_SCALE, load_sac
 
         b = obs.task.behavior
         if b not in self.loaded:
@@ -274,7 +274,7 @@ class SACPolicy:
             if not found:
                 raise ConfigError(f"no trained SAC model for {b}; train one with "
                                   f"`python scripts/train_sac.py --behavior {b}`")
-            self.loaded[b] = SAC.load(str(found[-1]), device="cpu")
+            self.loaded[b] = load_sac(found[-1])
         a = obs.object(obs.task.target).articulation
         if a is None or a.handle is None:
             raise ConfigError(f"the SAC policy drives joint behaviors only, not {b}")

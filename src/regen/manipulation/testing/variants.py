@@ -2,7 +2,7 @@
 
 A scenario keeps each context object's relation (``pet1 outside door1``) and its solved
 position. Variant 0 is the scenario as grounded; the others re-solve the same placement model
-(:func:`regen.manipulation.placement.solve_placement` over the scene geometry the grounding
+(:func:`regen.manipulation.grounding.placement.solve_placement` over the scene geometry the grounding
 used, every relation required, nothing relaxed) with other seeded preferred spots, and keep a
 solution only when some object stands at least :data:`SEPARATION` away from where it stands in
 every earlier variant. ``extremes=True`` puts the preferred spots at the room's corners, so the
@@ -17,10 +17,10 @@ import logging
 import random
 
 from regen.core.scenario import Scenario
-from regen.manipulation.behaviors import get_behavior
-from regen.manipulation.placement import ROOM, Request, scene_geometry, solve_placement
-from regen.manipulation.setting import ManipulationWorld
-from regen.manipulation.urdf import AABB
+from regen.manipulation.grounding.placement import ROOM, Request, scene_geometry, solve_placement
+from regen.manipulation.world.furniture import AABB
+from regen.manipulation.world.setting import ManipulationWorld
+from regen.manipulation.world.tasks import get_behavior
 
 log = logging.getLogger(__name__)
 

@@ -3,7 +3,7 @@
 Each generator returns a :class:`FurnitureSpec`: the URDF text plus the facts the rest of the
 package needs (which joint moves, where the handle is, which box inside can host objects, where
 the top surface is). URDF text is written into a per-scene temporary folder by
-:mod:`regen.manipulation.scene`, never into the package.
+:mod:`regen.manipulation.simulation.scene`, never into the package.
 
 Frame convention (all furniture): origin on the floor under the footprint centre, the front
 face looks along -x (towards a robot standing at smaller x), z up. Sizes are household objects

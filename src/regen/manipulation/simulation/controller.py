@@ -1,4 +1,5 @@
-"""Motion primitives for the Panda: IK moves, handle grasps, joint following, pick and place.
+"""The Panda's controller: the arm's IK moves (:mod:`~regen.manipulation.simulation.arm`), handle
+and object grasps, joint following.
 
 Grasping is a PyBullet constraint, not finger friction: a point-to-point constraint at the
 handle (so the handle can turn in the hand as a door swings) or a fixed constraint on a picked
@@ -15,92 +16,27 @@ from collections.abc import Callable
 
 import numpy as np
 
-from regen.manipulation.scene import ARM_JOINTS, EE_LINK, FINGER_JOINTS, PANDA_HOME, Scene, Vec3
+from regen.manipulation.simulation.arm import CONTROL_EVERY, Arm
+from regen.manipulation.simulation.layout import EE_LINK
+from regen.manipulation.simulation.scene import Scene
 
-CONTROL_EVERY = 4  # physics steps per IK update (60 Hz control at 240 Hz physics)
-ARM_FORCE = 87.0  # [N m] Panda joint torque limit
 GRASP_FORCE = 300.0  # [N] strength of the grasp constraint
-MOVE_SPEED = 0.35  # [m/s] end-effector set-point speed
 HAND_LINKS = (7, 8, 9, 10, 11)  # link 7 .. fingers and grasp target of the Panda
 JOINT_RATE = 0.5  # [rad/s] slowest rate at which a handle is dragged along its arc
 LEAD = 0.03  # [m] how far ahead of the handle the set-point runs along its path
 
 
-def _orientation(p, approach: str) -> tuple[float, float, float, float]:
-    # 'top': gripper points down; 'front': gripper points along +x (into furniture fronts)
-    if approach == "front":
-        return tuple(p.getQuaternionFromEuler((0.0, math.pi / 2, 0.0)))
-    return tuple(p.getQuaternionFromEuler((math.pi, 0.0, 0.0)))
-
-
-class Controller:
-    """Drives the robot of a :class:`Scene`; ``on_step`` is called after every physics step."""
+class Controller(Arm):
+    """Drives the robot of a :class:`Scene`: the arm's moves plus grasps (a constraint at a
+    handle or on an object), dragging a held handle along its joint and letting go."""
 
     def __init__(self, scene: Scene, on_step: Callable[[], None] | None = None):
-        self.scene = scene
-        self.p = scene.p
-        self.on_step = on_step or (lambda: None)
-        self.approach = "top"
+        super().__init__(scene, on_step)
         self.holding: str | None = None  # name of the grasped body
         self._constraint: int | None = None
-        self._target = np.array(scene.ee_position())
-        self._fingers = 0.04
-        self.steps = 0
-        n = 9
-        lower = [-2.9, -1.76, -2.9, -3.07, -2.9, -0.017, -2.9, 0.0, 0.0]
-        upper = [2.9, 1.76, 2.9, -0.07, 2.9, 3.75, 2.9, 0.04, 0.04]
-        self._ik_kw = dict(lowerLimits=lower, upperLimits=upper,
-                           jointRanges=[u - lo for u, lo in zip(upper, lower, strict=True)],
-                           restPoses=[*PANDA_HOME, 0.04, 0.04], maxNumIterations=40,
-                           residualThreshold=1e-4)
-        assert len(lower) == n
+        self._ignored: str | None = None  # body the hand passes through until the next release
 
-    # --- low level ----------------------------------------------------------------------------
-
-    def _apply(self) -> None:
-        p, s = self.p, self.scene
-        orn = _orientation(p, self.approach)
-        q = p.calculateInverseKinematics(s.robot, EE_LINK, self._target.tolist(), orn,
-                                         physicsClientId=s.client, **self._ik_kw)
-        p.setJointMotorControlArray(s.robot, list(ARM_JOINTS), p.POSITION_CONTROL,
-                                    targetPositions=list(q[:7]), forces=[ARM_FORCE] * 7,
-                                    physicsClientId=s.client)
-        p.setJointMotorControlArray(s.robot, list(FINGER_JOINTS), p.POSITION_CONTROL,
-                                    targetPositions=[self._fingers] * 2, forces=[20.0] * 2,
-                                    physicsClientId=s.client)
-
-    def tick(self, n: int = CONTROL_EVERY) -> None:
-        """Update the IK command and advance ``n`` physics steps."""
-        self._apply()
-        for _ in range(n):
-            self.scene.step()
-            self.steps += 1
-            self.on_step()
-
-    def wait(self, seconds: float) -> None:
-        for _ in range(max(1, int(seconds / (CONTROL_EVERY / 240.0)))):
-            self.tick()
-
-    # --- primitives ---------------------------------------------------------------------------
-
-    def move_to(self, target: Vec3, *, approach: str | None = None, speed: float = MOVE_SPEED,
-                tol: float = 0.015, timeout: float = 4.0) -> bool:
-        """Move the end effector in a straight line to ``target`` [m]; True when reached."""
-        if approach:
-            self.approach = approach
-        goal = np.asarray(target, dtype=float)
-        step = speed * CONTROL_EVERY / 240.0
-        for _ in range(int(timeout * 240 / CONTROL_EVERY)):
-            delta = goal - self._target
-            dist = float(np.linalg.norm(delta))
-            self._target = goal.copy() if dist <= step else self._target + delta / dist * step
-            self.tick()
-            if dist <= step and np.linalg.norm(np.asarray(self.scene.ee_position()) - goal) < tol:
-                return True
-        return False
-
-    def set_fingers(self, width: float) -> None:
-        self._fingers = width
+    # --- grasps -------------------------------------------------------------------------------
 
     def grasp_handle(self, furniture: str) -> None:
         """Close on the furniture's handle with a point-to-point constraint."""
@@ -117,7 +53,7 @@ class Controller:
                                               physicsClientId=s.client)
         p.changeConstraint(self._constraint, maxForce=GRASP_FORCE, physicsClientId=s.client)
         self.holding = furniture
-        self._fingers = 0.01
+        self.set_fingers(0.01)
         self._hand_collisions(furniture, False)
 
     def grasp_object(self, name: str) -> None:
@@ -140,7 +76,7 @@ class Controller:
                                               physicsClientId=s.client)
         p.changeConstraint(self._constraint, maxForce=GRASP_FORCE, physicsClientId=s.client)
         self.holding = name
-        self._fingers = 0.01
+        self.set_fingers(0.01)
         self._hand_collisions(name, False)
 
     def _hand_collisions(self, name: str, enable: bool) -> None:
@@ -158,7 +94,7 @@ class Controller:
         self._ignored = name
 
     def release(self) -> None:
-        ignored = getattr(self, "_ignored", None)
+        ignored = self._ignored
         if ignored is not None and ignored != self.holding:
             self._hand_collisions(ignored, True)
         self._ignored = None
@@ -168,7 +104,7 @@ class Controller:
             self.p.removeConstraint(self._constraint, physicsClientId=self.scene.client)
             self._constraint = None
         self.holding = None
-        self._fingers = 0.04
+        self.set_fingers(0.04)
 
     def follow_joint(self, furniture: str, fraction: float, *, rate: float = JOINT_RATE,
                      timeout: float = 6.0, stall: float = 1.5) -> bool:
@@ -198,9 +134,9 @@ class Controller:
                 radius = max(float(np.linalg.norm(arm - axis * np.dot(arm, axis))), 0.02)
                 # aim a few centimetres ahead on the arc: IK tracking error must not eat the lead
                 dq = math.copysign(min(abs(err) + 0.03, max(LEAD / radius, rate / 60.0)), err)
-                self._target = np.asarray(pos) + _rotate(arm, axis, dq)
+                self.target = np.asarray(pos) + _rotate(arm, axis, dq)
             else:
-                self._target = ee + axis * math.copysign(min(abs(err) + 0.01, LEAD), err)
+                self.target = ee + axis * math.copysign(min(abs(err) + 0.01, LEAD), err)
             self.tick()
             now = abs(goal - s.joint_position(furniture))
             if now < best - 1e-3:
@@ -224,3 +160,6 @@ def _rotate(v: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
     axis = axis / np.linalg.norm(axis)
     c, s_ = math.cos(angle), math.sin(angle)
     return v * c + np.cross(axis, v) * s_ + axis * np.dot(axis, v) * (1 - c)
+
+
+__all__ = ["GRASP_FORCE", "HAND_LINKS", "JOINT_RATE", "LEAD", "Controller"]

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from regen.manipulation.behaviors import get_behavior
-from regen.manipulation.placement import Request, scene_geometry, solve_placement
+from regen.manipulation.grounding.placement import Request, scene_geometry, solve_placement
+from regen.manipulation.world.tasks import get_behavior
 
 pytest.importorskip("ortools")
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from regen.core import Behavior, CausePath, PathEntity, Verdict
-from regen.manipulation.behaviors import BEHAVIORS
+from regen.manipulation.world.tasks import BEHAVIORS
 from regen.pipeline import ground_stage, run_path, simulate_stage
 from regen.runfolder import ScenarioFolder
 
@@ -86,8 +86,9 @@ def test_failed_behavior_gives_a_verdict_with_the_stage(tmp_path):
 
 @pytest.mark.slow
 def test_a_device_the_graph_turns_on_is_drawn_lit_and_recorded_on(tmp_path):
-    from regen.manipulation.scene import POWERED_ON, PROXY_STYLE, Scene
-    from regen.manipulation.simulate import layout_from_scenario
+    from regen.manipulation.simulation.build import POWERED_ON, PROXY_STYLE
+    from regen.manipulation.simulation.run import layout_from_scenario
+    from regen.manipulation.simulation.scene import Scene
 
     b = BEHAVIORS["open_door"]
     event = "the tv show behind the door is too loud"
@@ -102,6 +103,6 @@ def test_a_device_the_graph_turns_on_is_drawn_lit_and_recorded_on(tmp_path):
         # the words name a tv that is on: only the scenario that shows it is verified
         assert (out.verdict.status == "verified") == (power == "on"), out.verdict.reason
         with Scene(layout_from_scenario(out.scenario())[0], use_meshes=False) as scene:
-            rgba = scene._call("getVisualShapeData", scene.bodies[tv.name].id)[0][7]
+            rgba = scene.call("getVisualShapeData", scene.bodies[tv.name].id)[0][7]
         want = POWERED_ON["tv"] if power == "on" else PROXY_STYLE["tv"][0]
         assert tuple(round(c, 2) for c in rgba) == want

@@ -1,15 +1,12 @@
-"""Behavior registry: keyword matching, rewards, URDF generation."""
+"""Task registry: keyword matching, success predicates, rewards."""
 
 from __future__ import annotations
-
-import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
 
 from regen.errors import ConfigError
-from regen.manipulation.behaviors import BEHAVIORS, match_behavior, resolve
-from regen.manipulation.urdf import FURNITURE, furniture
+from regen.manipulation.world.tasks import BEHAVIORS, match_behavior, resolve
 
 
 @pytest.mark.parametrize("text,expected", [
@@ -43,18 +40,3 @@ def test_articulation_reward_prefers_progress():
     at = r({"ee": handle, "handle": handle, "fraction": 0.0})
     opened = r({"ee": handle, "handle": handle, "fraction": 0.45})
     assert far < at < opened
-
-
-@pytest.mark.parametrize("kind", sorted(FURNITURE))
-def test_urdf_is_well_formed_and_names_its_joint(kind):
-    spec = furniture(kind)
-    root = ET.fromstring(spec.urdf)
-    joints = {j.get("name"): j for j in root.iter("joint")}
-    links = {link.get("name") for link in root.iter("link")}
-    if spec.joint:
-        assert spec.joint in joints and joints[spec.joint].get("type") in ("revolute", "prismatic")
-    if spec.handle_link:
-        assert spec.handle_link in links
-    # materials are unique per visual (PyBullet shares colours between equal names)
-    names = [m.get("name") for m in root.iter("material")]
-    assert len(names) == len(set(names))

@@ -22,8 +22,8 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from regen.cpsat import NamedModel
-from regen.manipulation.behaviors import BehaviorDef
-from regen.manipulation.urdf import AABB, furniture
+from regen.manipulation.world.furniture import AABB, furniture
+from regen.manipulation.world.tasks import BehaviorDef
 
 RELATIONS: dict[str, str] = {
     "on": "on top of the reference (table, cabinet, oven ...)",
@@ -199,26 +199,59 @@ def solve_placement(requests: list[Request], geometry: SceneGeometry, *, seed: i
     Each object is kept as close as it may be to a preferred spot [m]: a seeded random point of
     the room, or ``spots[name]`` where given (policy-test variants ask for the room's corners)."""
     t0 = time.perf_counter()
-    refs = geometry.refs
-    problems = [p for r in requests for p in structural_problems(r, refs)]
+    problems = [p for r in requests for p in structural_problems(r, geometry.refs)]
     if problems:
         return PlacementResult("infeasible", conflicts=problems, wall_time=time.perf_counter() - t0)
     rng = random.Random(seed)
-    model = NamedModel()  # one named constraint per relation
-    m = model.m
-    xs: dict[str, Any] = {}
-    ys: dict[str, Any] = {}
-    groups: dict[str, list[str]] = {}
-    support: dict[str, tuple[str, float, bool]] = {}
-    objective = []
+    model = PlacementModel(geometry)
     for r in requests:
+        model.place(r, rng, spots)
+    model.keep_apart(requests)
+    model.m.Minimize(sum(model.objective))
+    out = model.named.solve(time_limit, seed=seed)
+    return model.result(out, requests, time_limit, time.perf_counter() - t0)
+
+
+class PlacementModel:
+    """The CP-SAT model of one placement: a position per object on the 1 cm grid, one named
+    constraint per relation (:meth:`place`), no overlaps (:meth:`keep_apart`) and the solution
+    read back (:meth:`result`)."""
+
+    def __init__(self, geometry: SceneGeometry) -> None:
+        self.geometry = geometry
+        self.named = NamedModel()  # one named constraint per relation
+        self.m = self.named.m
+        self.xs: dict[str, Any] = {}
+        self.ys: dict[str, Any] = {}
+        self.groups: dict[str, list[str]] = {}  # support -> the objects on it
+        self.support: dict[str, tuple[str, float, bool]] = {}  # object -> (group, z [m], dynamic)
+        self.objective: list[Any] = []
+
+    def place(self, r: Request, rng: random.Random, spots: dict[str, tuple[float, float]] | None) -> None:
+        """The object's position variables, its relation and its preferred spot."""
+        m = self.m
         length, w, _h = r.size
-        ref = refs[r.reference]
         hl, hw = _cm(length / 2), _cm(w / 2)
         x = m.NewIntVar(_cm(ROOM.lo[0]) + hl, _cm(ROOM.hi[0]) - hl, f"x_{r.name}")
         y = m.NewIntVar(_cm(ROOM.lo[1]) + hw, _cm(ROOM.hi[1]) - hw, f"y_{r.name}")
-        xs[r.name], ys[r.name] = x, y
-        lit = model.literal(f"{r.name} {r.relation.replace('_', ' ')} {r.reference}")
+        self.xs[r.name], self.ys[r.name] = x, y
+        lit = self.named.literal(f"{r.name} {r.relation.replace('_', ' ')} {r.reference}")
+        group, z, dyn = self._relate(r, x, y, hl, hw, lit)
+        self.support[r.name] = (group, z, dyn)
+        self.groups.setdefault(group, []).append(r.name)
+        # a seeded preferred spot: the solver keeps each object as close to it as it may
+        px, py = rng.uniform(ROOM.lo[0], ROOM.hi[0]), rng.uniform(ROOM.lo[1], ROOM.hi[1])
+        if spots and r.name in spots:
+            px, py = spots[r.name]
+        for var, pref, name in ((x, px, "dx"), (y, py, "dy")):
+            dev = m.NewIntVar(0, 10_000, f"{name}_{r.name}")
+            m.AddAbsEquality(dev, var - _cm(pref))
+            self.objective.append(dev)
+
+    def _relate(self, r: Request, x: Any, y: Any, hl: int, hw: int, lit: Any) -> tuple[str, float, bool]:
+        """The relation's constraints (enforced by ``lit``); returns (support group, z, dynamic)."""
+        m = self.m
+        ref = self.geometry.refs[r.reference]
         rx0, ry0, rx1, ry1 = _cm(ref.lo[0]), _cm(ref.lo[1]), _cm(ref.hi[0]), _cm(ref.hi[1])
         group, z, dyn = "floor", 0.0, False
         if r.relation == "on":
@@ -276,77 +309,75 @@ def solve_placement(requests: list[Request], geometry: SceneGeometry, *, seed: i
             m.Add(y - hw >= far).OnlyEnforceIf(sides[2])
             m.Add(y + hw <= -far).OnlyEnforceIf(sides[3])
             m.AddBoolOr(sides).OnlyEnforceIf(lit)
-        support[r.name] = (group, z, dyn)
-        groups.setdefault(group, []).append(r.name)
-        # a seeded preferred spot: the solver keeps each object as close to it as it may
-        px, py = rng.uniform(ROOM.lo[0], ROOM.hi[0]), rng.uniform(ROOM.lo[1], ROOM.hi[1])
-        if spots and r.name in spots:
-            px, py = spots[r.name]
-        for var, pref, name in ((x, px, "dx"), (y, py, "dy")):
-            dev = m.NewIntVar(0, 10_000, f"{name}_{r.name}")
-            m.AddAbsEquality(dev, var - _cm(pref))
-            objective.append(dev)
-    sizes = {r.name: (_cm(r.size[0] / 2), _cm(r.size[1] / 2)) for r in requests}
-    gap = _cm(CLEAR)
+        return group, z, dyn
 
-    def apart_from_box(n: str, box: AABB, tag: str) -> None:
+    def keep_apart(self, requests: list[Request]) -> None:
+        """Objects on the floor (or under the table) overlap neither each other nor the fixed
+        things and keep-out areas; objects on one top or in one interior do not overlap."""
+        sizes = {r.name: (_cm(r.size[0] / 2), _cm(r.size[1] / 2)) for r in requests}
+        groups, refs = self.groups, self.geometry.refs
+        floor_like = {g for g in groups if g == "floor" or g.startswith("under:")}
+        for g, names in groups.items():
+            peers = [n for gg in (floor_like if g in floor_like else {g}) for n in groups[gg]]
+            for a in names:
+                for b_ in peers:
+                    if a >= b_:
+                        continue
+                    self._apart_pair(a, b_, sizes)
+            for a in names:
+                for _label, box in self.geometry.occupied.get(g, []):
+                    self._apart_from_box(a, box, "occ", sizes)
+                if g in floor_like:
+                    # fixed things on the floor and the keep-out areas (reachability)
+                    for ref in refs.values():
+                        if g == f"under:{ref.name}":
+                            continue
+                        self._apart_from_box(a, AABB((*ref.lo, 0), (*ref.hi, 1)), f"ref_{ref.name}", sizes)
+                    for i, (_label, box) in enumerate(self.geometry.keepouts):
+                        self._apart_from_box(a, box, f"keep{i}", sizes)
+
+    def _apart_pair(self, a: str, b_: str, sizes: dict[str, tuple[int, int]]) -> None:
+        m, xs, ys, gap = self.m, self.xs, self.ys, _cm(CLEAR)
+        ha, wa = sizes[a]
+        hb, wb = sizes[b_]
+        bs = [m.NewBoolVar(f"sep_{a}_{b_}_{i}") for i in range(4)]
+        m.Add(xs[a] + ha + gap <= xs[b_] - hb).OnlyEnforceIf(bs[0])
+        m.Add(xs[b_] + hb + gap <= xs[a] - ha).OnlyEnforceIf(bs[1])
+        m.Add(ys[a] + wa + gap <= ys[b_] - wb).OnlyEnforceIf(bs[2])
+        m.Add(ys[b_] + wb + gap <= ys[a] - wa).OnlyEnforceIf(bs[3])
+        m.AddBoolOr(bs)
+
+    def _apart_from_box(self, n: str, box: AABB, tag: str, sizes: dict[str, tuple[int, int]]) -> None:
+        m, gap = self.m, _cm(CLEAR)
         hl, hw = sizes[n]
         b = [m.NewBoolVar(f"{tag}_{n}_{i}") for i in range(4)]
-        m.Add(xs[n] + hl + gap <= _cm(box.lo[0])).OnlyEnforceIf(b[0])
-        m.Add(xs[n] - hl - gap >= _cm(box.hi[0])).OnlyEnforceIf(b[1])
-        m.Add(ys[n] + hw + gap <= _cm(box.lo[1])).OnlyEnforceIf(b[2])
-        m.Add(ys[n] - hw - gap >= _cm(box.hi[1])).OnlyEnforceIf(b[3])
+        m.Add(self.xs[n] + hl + gap <= _cm(box.lo[0])).OnlyEnforceIf(b[0])
+        m.Add(self.xs[n] - hl - gap >= _cm(box.hi[0])).OnlyEnforceIf(b[1])
+        m.Add(self.ys[n] + hw + gap <= _cm(box.lo[1])).OnlyEnforceIf(b[2])
+        m.Add(self.ys[n] - hw - gap >= _cm(box.hi[1])).OnlyEnforceIf(b[3])
         m.AddBoolOr(b)
 
-    # objects on the floor (or under the table) must not overlap each other
-    floor_like = {g for g in groups if g == "floor" or g.startswith("under:")}
-    for g, names in groups.items():
-        peers = [n for gg in (floor_like if g in floor_like else {g}) for n in groups[gg]]
-        for a in names:
-            for b_ in peers:
-                if a >= b_:
-                    continue
-                ha, wa = sizes[a]
-                hb, wb = sizes[b_]
-                bs = [m.NewBoolVar(f"sep_{a}_{b_}_{i}") for i in range(4)]
-                m.Add(xs[a] + ha + gap <= xs[b_] - hb).OnlyEnforceIf(bs[0])
-                m.Add(xs[b_] + hb + gap <= xs[a] - ha).OnlyEnforceIf(bs[1])
-                m.Add(ys[a] + wa + gap <= ys[b_] - wb).OnlyEnforceIf(bs[2])
-                m.Add(ys[b_] + wb + gap <= ys[a] - wa).OnlyEnforceIf(bs[3])
-                m.AddBoolOr(bs)
-        for a in names:
-            for _label, box in geometry.occupied.get(g, []):
-                apart_from_box(a, box, "occ")
-            if g in floor_like:
-                # fixed things on the floor and the keep-out areas (reachability)
-                for ref in refs.values():
-                    if g == f"under:{ref.name}":
-                        continue
-                    apart_from_box(a, AABB((*ref.lo, 0), (*ref.hi, 1)), f"ref_{ref.name}")
-                for i, (_label, box) in enumerate(geometry.keepouts):
-                    apart_from_box(a, box, f"keep{i}")
-    m.Minimize(sum(objective))
-    out = model.solve(time_limit, seed=seed)
-    wall = time.perf_counter() - t0
-    if out.solved:
-        placed = {}
-        for r in requests:
-            g, z, dyn = support[r.name]
-            where = ("floor" if g == "floor" else g.replace("on:", "top of ").replace("in:", "inside ")
-                     .replace("under:", "under "))
-            placed[r.name] = Placed(r.name, out.value(xs[r.name]) * UNIT, out.value(ys[r.name]) * UNIT,
-                                    z, dyn, where)
-        return PlacementResult(out.status, placed, wall_time=wall)
-    if out.status == "infeasible":
-        if out.conflicts:
-            why = ("these placements cannot all hold without overlapping each other, the fixed "
-                   "furniture or the robot's working space: " + "; ".join(out.conflicts))
-        else:
-            why = "the objects do not fit the free floor and surfaces at all"
-        return PlacementResult("infeasible", conflicts=[why], core=out.conflicts, wall_time=wall)
-    name = out.cp_status.lower()
-    return PlacementResult(out.status, conflicts=[f"CP-SAT returned {name} within {time_limit:.0f} s of solver work"],
-                           wall_time=wall)
+    def result(self, out: Any, requests: list[Request], time_limit: float, wall: float) -> PlacementResult:
+        """The placed objects of a solution, or why there is none."""
+        if out.solved:
+            placed = {}
+            for r in requests:
+                g, z, dyn = self.support[r.name]
+                where = ("floor" if g == "floor" else g.replace("on:", "top of ").replace("in:", "inside ")
+                         .replace("under:", "under "))
+                placed[r.name] = Placed(r.name, out.value(self.xs[r.name]) * UNIT,
+                                        out.value(self.ys[r.name]) * UNIT, z, dyn, where)
+            return PlacementResult(out.status, placed, wall_time=wall)
+        if out.status == "infeasible":
+            if out.conflicts:
+                why = ("these placements cannot all hold without overlapping each other, the fixed "
+                       "furniture or the robot's working space: " + "; ".join(out.conflicts))
+            else:
+                why = "the objects do not fit the free floor and surfaces at all"
+            return PlacementResult("infeasible", conflicts=[why], core=out.conflicts, wall_time=wall)
+        name = out.cp_status.lower()
+        return PlacementResult(out.status, conflicts=[f"CP-SAT returned {name} within {time_limit:.0f} s of solver work"],
+                               wall_time=wall)
 
 
 def describe_geometry(geometry: SceneGeometry) -> str:
@@ -366,5 +397,5 @@ def describe_geometry(geometry: SceneGeometry) -> str:
     return "\n".join(lines)
 
 
-__all__ = ["RELATIONS", "Placed", "PlacementResult", "Ref", "Request", "SceneGeometry",
+__all__ = ["RELATIONS", "Placed", "PlacementModel", "PlacementResult", "Ref", "Request", "SceneGeometry",
            "describe_geometry", "scene_geometry", "solve_placement", "structural_problems"]

@@ -1,10 +1,11 @@
 """Optional learned controller: SAC (stable-baselines3) on a behavior's reward, trained once.
 
 The environment wraps the behavior's scene (robot, furniture, table) and its dense reward
-(:mod:`regen.manipulation.behaviors`). Actions are end-effector displacements (top-down hand);
+(:mod:`regen.manipulation.world.tasks`). Actions are end-effector displacements (top-down hand);
 observations are the hand position, the handle position and the joint fraction, so a policy
 trained in the bare scene runs unchanged in every generated context. The trained policy is
-cached under the user cache dir (``policies/``) and reused.
+cached under the user cache dir (``policies/``) and reused; :func:`load_sac` loads a saved one
+and says what is wrong with a missing or broken file.
 
 Needs the ``rl`` extra (stable-baselines3, gymnasium, torch==2.13.0); without it,
 :class:`regen.errors.DependencyNotInstalled` names the extra.
@@ -14,15 +15,18 @@ from __future__ import annotations
 
 import logging
 import time
+import zipfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from regen.errors import DependencyNotInstalled
-from regen.manipulation.behaviors import BehaviorDef, get_behavior
-from regen.manipulation.controller import CONTROL_EVERY, Controller
-from regen.manipulation.scene import FurniturePlacement, Scene, SceneLayout
+from regen.errors import ConfigError, DependencyNotInstalled
+from regen.manipulation.simulation.arm import CONTROL_EVERY
+from regen.manipulation.simulation.controller import Controller
+from regen.manipulation.simulation.layout import FurniturePlacement, SceneLayout
+from regen.manipulation.simulation.scene import Scene
+from regen.manipulation.world.tasks import BehaviorDef, get_behavior
 from regen.paths import cache_dir
 
 log = logging.getLogger(__name__)
@@ -53,7 +57,7 @@ def act(ctl: Controller, action: np.ndarray) -> None:
     """Move the hand set-point by ``action * ACTION_SCALE`` [m] and run one action period."""
     a = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
     ctl.approach = "top"
-    ctl._target = np.clip(ctl._target + a * ACTION_SCALE, *WORKSPACE)
+    ctl.target = np.clip(ctl.target + a * ACTION_SCALE, *WORKSPACE)
     for _ in range(TICKS_PER_ACTION):
         ctl.tick(CONTROL_EVERY)
 
@@ -85,18 +89,18 @@ def make_env(behavior_id: str = "turn_on_lamp", seed: int = 0):
             layout = SceneLayout(furniture=[FurniturePlacement("target", behavior.furniture, fx, fy,
                                                                behavior.start_fraction)])
             self.scene = Scene(layout)
-            self.state_id = self.scene._call("saveState")
+            self.state_id = self.scene.call("saveState")
             self.ctl: Controller | None = None
             self.t = 0
 
         def reset(self, *, seed: int | None = None, options: dict | None = None):
             super().reset(seed=seed)
-            self.scene._call("restoreState", self.state_id)
+            self.scene.call("restoreState", self.state_id)
             self.ctl = Controller(self.scene)
             self.ctl.approach = "top"
             self.ctl.set_fingers(0.0)
             start = np.asarray(self.scene.ee_position()) + self.np_random.uniform(-0.05, 0.05, 3)
-            self.ctl._target = np.clip(start, *WORKSPACE)
+            self.ctl.target = np.clip(start, *WORKSPACE)
             self.ctl.tick(CONTROL_EVERY * 6)
             self.t = 0
             return observe(self.ctl, "target"), {}
@@ -125,6 +129,31 @@ def policy_path(behavior_id: str, steps: int, seed: int) -> Path:
     return cache_dir("policies") / f"sac_{behavior_id}_{steps}_s{seed}.zip"
 
 
+TRAIN_HINT = "train one with `python scripts/train_sac.py --behavior BEHAVIOR`"
+
+
+def load_sac(path: str | Path) -> Any:
+    """The SAC model saved at ``path`` (a stable-baselines3 ``.zip``), on the CPU.
+
+    :class:`ConfigError` naming the path when there is no file there, or it is not a saved
+    stable-baselines3 model, or it does not load; :class:`DependencyNotInstalled` (the ``rl``
+    extra) when the file looks right but stable-baselines3 is missing."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"no SAC policy file at {path}; {TRAIN_HINT}")
+    if not zipfile.is_zipfile(path):
+        raise ConfigError(f"{path} is not a saved SAC policy (a stable-baselines3 .zip); {TRAIN_HINT}")
+    with zipfile.ZipFile(path) as z:
+        if "data" not in z.namelist():
+            raise ConfigError(f"{path} is a zip file but not a saved stable-baselines3 model (it has "
+                              f"no 'data' entry); {TRAIN_HINT}")
+    _, sb3 = _require()
+    try:
+        return sb3.SAC.load(str(path), device="cpu")
+    except Exception as exc:  # a truncated or foreign model: say which file
+        raise ConfigError(f"could not load the SAC policy {path}: {exc}") from exc
+
+
 def train_sac(behavior_id: str = "turn_on_lamp", *, steps: int = 20000, seed: int = 0,
               retrain: bool = False) -> tuple[Any, dict[str, float]]:
     """Train (or load the cached) SAC policy for a joint behavior; returns (model, info) with
@@ -132,7 +161,7 @@ def train_sac(behavior_id: str = "turn_on_lamp", *, steps: int = 20000, seed: in
     _, sb3 = _require()
     path = policy_path(behavior_id, steps, seed)
     if path.exists() and not retrain:
-        return sb3.SAC.load(str(path), device="cpu"), {"train_seconds": 0.0, "cached": 1.0}
+        return load_sac(path), {"train_seconds": 0.0, "cached": 1.0}
     import torch
 
     torch.set_num_threads(1)
@@ -162,3 +191,7 @@ def run_policy(policy: Any, ctl: Controller, behavior: BehaviorDef, furniture: s
         action, _ = policy.predict(obs, deterministic=True)
         act(ctl, action)
     return success(behavior, ctl.scene.joint_fraction(furniture))
+
+
+__all__ = ["ACTION_SCALE", "EPISODE_STEPS", "TRAIN_HINT", "WORKSPACE", "act", "load_sac", "make_env", "observe",
+           "policy_path", "run_policy", "success", "train_sac"]

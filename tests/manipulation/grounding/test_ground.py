@@ -12,7 +12,8 @@ from regen.errors import (
     ProviderResponseError,
     ProviderUnreachableError,
 )
-from regen.manipulation.grounding import GroundAnswer, PlacementChoice, ground_path
+from regen.manipulation.grounding.answers import GroundAnswer, PlacementChoice
+from regen.manipulation.grounding.ground import ground_path
 
 pytest.importorskip("ortools")
 

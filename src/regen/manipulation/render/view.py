@@ -17,9 +17,10 @@ from regen.contract import ANIMATION, KEYFRAMES
 from regen.core.scenario import Scenario
 from regen.core.trace import Trace
 from regen.core.verdict import Verdict
-from regen.manipulation.scene import ARM_JOINTS, FINGER_JOINTS, Scene
-from regen.manipulation.setting import ManipulationWorld
-from regen.manipulation.simulate import layout_from_scenario
+from regen.manipulation.simulation.layout import ARM_JOINTS, FINGER_JOINTS
+from regen.manipulation.simulation.run import layout_from_scenario
+from regen.manipulation.simulation.scene import Scene
+from regen.manipulation.world.setting import ManipulationWorld
 
 WIDTH, HEIGHT = 320, 240  # [px]
 ANIMATION_FILE = "run.gif"
@@ -30,8 +31,10 @@ CAMERA = {"target": (0.6, 0.15, 0.3), "distance": 2.6, "yaw": -62.0, "pitch": -4
 FIT = 1.1  # camera distance per metre of the scene's larger horizontal extent
 
 
-def _camera(p, client: int, steep: bool = False,
-            extent: tuple[tuple[float, ...], tuple[float, ...]] | None = None) -> tuple[list[float], list[float]]:
+def camera(p, client: int, steep: bool = False,
+           extent: tuple[tuple[float, ...], tuple[float, ...]] | None = None) -> tuple[list[float], list[float]]:
+    """The (view, projection) matrices of the run's camera; ``steep`` looks down over a wall,
+    ``extent`` (lo, hi) [m] moves and widens it to keep that box in view."""
     # behind a wall (door, window) objects are only visible from a steep camera
     pitch = -68.0 if steep else CAMERA["pitch"]
     target, distance = CAMERA["target"], CAMERA["distance"]
@@ -54,7 +57,8 @@ def _extent(scene: Scene) -> tuple[tuple[float, ...], tuple[float, ...]]:
     return lo, hi
 
 
-def _project(point: tuple[float, float, float], view: list[float], proj: list[float]) -> tuple[int, int] | None:
+def project(point: tuple[float, float, float], view: list[float], proj: list[float]) -> tuple[int, int] | None:
+    """The pixel a world point [m] falls on, or None when it is behind the camera."""
     v = np.asarray(view).reshape(4, 4).T
     pr = np.asarray(proj).reshape(4, 4).T
     clip = pr @ v @ np.array([*point, 1.0])
@@ -93,8 +97,8 @@ def _label_text(scenario: Scenario, name: str) -> str:
     return f"{name} ({'; '.join(bits)})" if bits else name
 
 
-def _free_row(placed: list[tuple[float, float, float, float]], x0: float, y0: float, w: float,
-              h: float = 11) -> float:
+def free_row(placed: list[tuple[float, float, float, float]], x0: float, y0: float, w: float,
+             h: float = 11) -> float:
     """The top of a label ``w`` wide at ``x0`` nearest to ``y0`` that overlaps none of
     ``placed`` (two objects side by side on the table would print one label over the other)."""
     def free(y: float) -> bool:
@@ -121,7 +125,7 @@ def render_frames(scenario: Scenario, trace: Trace, indices: list[int]) -> list[
                 box = scene.aabb(name, -1 if b.kind == "furniture" else None)
                 centre = (np.asarray(box.lo) + np.asarray(box.hi)) / 2
                 offsets[name] = np.asarray(pos) - centre
-        view, proj = _camera(p, c, any(b.spec is not None and b.spec.wall for b in scene.bodies.values()),
+        view, proj = camera(p, c, any(b.spec is not None and b.spec.wall for b in scene.bodies.values()),
                              _extent(scene))
         for i in indices:
             _pose_at(scene, trace, i, offsets)
@@ -140,13 +144,13 @@ def render_frames(scenario: Scenario, trace: Trace, indices: list[int]) -> list[
                 if name == "robot" or name not in scene.bodies:
                     continue
                 top = (track.x[i], track.y[i], track.z[i] + track.height / 2 + 0.05)
-                xy = _project(top, view, proj)
+                xy = project(top, view, proj)
                 if xy is None:
                     continue
                 text = _label_text(scenario, name)
                 w = draw.textlength(text)
                 x0 = max(0, min(WIDTH - w - 4, xy[0] - w / 2))
-                y0 = _free_row(placed, x0, max(0, xy[1] - 12), w + 4)
+                y0 = free_row(placed, x0, max(0, xy[1] - 12), w + 4)
                 placed.append((x0, y0, x0 + w + 4, y0 + 11))
                 draw.rectangle((x0, y0, x0 + w + 4, y0 + 11), fill=(255, 255, 255))
                 draw.text((x0 + 2, y0), text, fill=(0, 0, 0))
@@ -177,3 +181,7 @@ def render_run(scenario: Scenario, trace: Trace, verdict: Verdict, out_dir: Path
     gif = media.write_gif(out_dir / ANIMATION_FILE, [by_idx[i] for i in gif_idx],
                           media.frame_ms(trace.times, gif_idx, animation))
     return {ANIMATION: gif, KEYFRAMES: png}
+
+
+__all__ = ["ANIMATION_FILE", "CAMERA", "GIF_FRAME_MS", "HEIGHT", "KEYFRAMES_FILE", "WIDTH", "camera", "free_row",
+           "project", "render_frames", "render_run"]

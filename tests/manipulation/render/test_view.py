@@ -6,7 +6,7 @@ import pytest
 
 pybullet = pytest.importorskip("pybullet")
 
-from regen.manipulation.render import HEIGHT, WIDTH, _camera, _project  # noqa: E402
+from regen.manipulation.render.view import HEIGHT, WIDTH, camera, project  # noqa: E402
 
 
 @pytest.mark.parametrize("steep", [False, True])
@@ -16,13 +16,13 @@ def test_a_person_beyond_the_door_is_in_the_picture(steep: bool) -> None:
     person = (0.9, 2.4, 1.1)
     client = pybullet.connect(pybullet.DIRECT)
     try:
-        fixed = _camera(pybullet, client, steep)
-        fitted = _camera(pybullet, client, steep, extent)
+        fixed = camera(pybullet, client, steep)
+        fitted = camera(pybullet, client, steep, extent)
     finally:
         pybullet.disconnect(client)
 
     def inside(view_proj, point) -> bool:
-        xy = _project(point, *view_proj)
+        xy = project(point, *view_proj)
         return xy is not None and 0 <= xy[0] < WIDTH and 0 <= xy[1] < HEIGHT
 
     assert not inside(fixed, person)  # the fixed view cut it off
@@ -31,12 +31,12 @@ def test_a_person_beyond_the_door_is_in_the_picture(steep: bool) -> None:
 
 
 def test_labels_of_objects_side_by_side_do_not_print_over_each_other() -> None:
-    from regen.manipulation.render import _free_row
+    from regen.manipulation.render.view import free_row
 
     placed: list[tuple[float, float, float, float]] = []
     rows = []
     for x0 in (100.0, 130.0, 400.0 - 300.0):  # three labels wanting the same row, overlapping
-        y = _free_row(placed, x0, 50.0, 80.0)
+        y = free_row(placed, x0, 50.0, 80.0)
         placed.append((x0, y, x0 + 80.0, y + 11))
         rows.append(y)
     assert rows[0] == 50.0 and len(set(rows)) == 3
@@ -44,4 +44,4 @@ def test_labels_of_objects_side_by_side_do_not_print_over_each_other() -> None:
         for b in placed[i + 1:]:
             assert a[2] <= b[0] or b[2] <= a[0] or a[3] <= b[1] or b[3] <= a[1]
     # a label with room keeps its own row
-    assert _free_row(placed, 250.0, 50.0, 40.0) == 50.0
+    assert free_row(placed, 250.0, 50.0, 40.0) == 50.0

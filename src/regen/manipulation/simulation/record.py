@@ -1,14 +1,4 @@
-"""Roll a grounded manipulation scenario out in PyBullet and record a :class:`Trace`.
-
-Scenario conventions (written by :mod:`regen.manipulation.grounding`):
-
-- ``world`` (:class:`~regen.manipulation.setting.ManipulationWorld`): ``behavior`` (the task's id);
-  ``duration`` [s] caps the rollout.
-- entity ``properties['role']``: ``robot``, ``target`` (the furniture the behavior acts on),
-  ``item`` (the object it moves), ``support`` (the table) or ``context`` (placed objects).
-- ``parameters[name]``: ``x``, ``y`` [m] (furniture origin / object bottom centre), ``z`` [m]
-  (support height), ``furniture`` (kind), ``fraction`` (initial opening), ``length``,
-  ``width``, ``height`` [m], ``dynamic`` (bool).
+"""Record a running manipulation scene into a :class:`Trace`.
 
 Trace contents, recorded at ``RECORD_HZ``: every body's AABB centre (x, y, z) and extents; the
 robot's end effector (``ee_x/y/z``), what it holds (``holding``) and its joint angles
@@ -21,60 +11,17 @@ the previous sample, comma-separated) and each object's ``tilt`` [rad] from upri
 
 from __future__ import annotations
 
-import logging
 import math
-import time
 from dataclasses import dataclass, field
 
 from regen.core.scenario import Scenario
 from regen.core.trace import ActorTrack, Trace
-from regen.errors import SimulationError
-from regen.manipulation.behaviors import BehaviorDef, get_behavior
-from regen.manipulation.scene import DT, FurniturePlacement, ObjectPlacement, Scene, SceneLayout
-from regen.manipulation.setting import ManipulationWorld
-
-log = logging.getLogger(__name__)
+from regen.manipulation.simulation.layout import DT
+from regen.manipulation.simulation.scene import Scene
+from regen.manipulation.world.setting import ManipulationWorld
 
 RECORD_HZ = 24  # trace samples per simulated second
 ON_FRACTION = 0.5  # a switch/lever/knob counts as 'on' beyond this opening
-
-
-@dataclass
-class Roles:
-    target: str
-    item: str | None = None
-    behavior: BehaviorDef | None = None
-
-
-def layout_from_scenario(scenario: Scenario) -> tuple[SceneLayout, Roles]:
-    """The physical layout a scenario describes, and which entity plays which role."""
-    behavior = get_behavior(ManipulationWorld.of(scenario).behavior)
-    layout = SceneLayout()
-    target: str | None = None
-    item: str | None = None
-    for e in scenario.entities:
-        role = e.properties.get("role", "context")
-        if role == "robot":
-            continue
-        par = scenario.parameters.get(e.name)
-        if par is None:
-            raise SimulationError(f"entity {e.name!r} has no solved placement; ground the scenario first")
-        if "furniture" in par:
-            layout.furniture.append(FurniturePlacement(e.name, str(par["furniture"]), float(par["x"]),
-                                                       float(par["y"]), float(par.get("fraction", 0.0))))
-        else:
-            layout.objects.append(ObjectPlacement(
-                e.name, e.asset, float(par["x"]), float(par["y"]), float(par.get("z", 0.0)),
-                (float(par["length"]), float(par["width"]), float(par["height"])),
-                dynamic=bool(par.get("dynamic", False)), label=e.name,
-                power=str(par["power"]) if par.get("power") else None))
-        if role == "target":
-            target = e.name
-        elif role == "item":
-            item = e.name
-    if target is None:
-        raise SimulationError("the scenario has no target furniture (an entity with role 'target')")
-    return layout, Roles(target, item, behavior)
 
 
 @dataclass
@@ -180,57 +127,4 @@ class Recorder:
                            "physics_dt": DT, "physics_steps": self.steps})
 
 
-@dataclass
-class RolloutResult:
-    trace: Trace
-    timings: dict[str, float]  # stage -> wall seconds (build, rollout)
-    script_ok: bool  # every primitive reported success (the verdict is still the FSM's)
-    physics_steps: int
-
-
-def rollout(scenario: Scenario, *, policy: object | None = None,
-            watch: tuple[str, ...] = ()) -> RolloutResult:
-    """Build the scene, run the behavior's controller, record the trace.
-
-    ``policy``: a trained SAC policy (:mod:`regen.manipulation.rl`); default is the scripted
-    motion-primitive controller. ``watch``: bodies whose contacts with the robot the trace
-    records (see the module docstring). Simulator failures raise :class:`SimulationError`.
-    """
-    from regen.manipulation.controller import Controller
-    from regen.manipulation.scripted import run_script
-
-    layout, roles = layout_from_scenario(scenario)
-    behavior = roles.behavior
-    assert behavior is not None
-    t0 = time.perf_counter()
-    with Scene(layout) as scene:
-        t1 = time.perf_counter()
-        rec = Recorder(scene, watch=tuple(watch))
-        if behavior.state_name:
-            rec.meaning[roles.target] = behavior.state_name
-        ctl = Controller(scene, on_step=rec)
-        # the recorder reads the controller's grasp state on every sample
-        orig = ctl.on_step
-
-        def on_step() -> None:
-            rec.holding = ctl.holding
-            orig()
-
-        ctl.on_step = on_step
-        ctl.wait(0.25)  # let dynamic bodies settle before the behavior starts
-        try:
-            if policy is not None:
-                from regen.manipulation.rl import run_policy
-
-                ok = run_policy(policy, ctl, behavior, roles.target)
-            else:
-                ok = run_script(ctl, behavior, roles.target, roles.item)
-        except SimulationError:
-            raise
-        except Exception as exc:  # pybullet raises bare errors; report them as ours
-            raise SimulationError(f"PyBullet failed during the rollout: {exc}") from exc
-        rec.holding = ctl.holding
-        rec.sample()
-        trace = rec.trace(scenario)
-        t2 = time.perf_counter()
-    return RolloutResult(trace, {"build": t1 - t0, "rollout": t2 - t1}, ok, rec.steps)
+__all__ = ["ON_FRACTION", "RECORD_HZ", "Recorder"]

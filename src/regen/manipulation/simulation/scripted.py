@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from regen.manipulation.behaviors import BehaviorDef
-from regen.manipulation.controller import Controller
+from regen.manipulation.simulation.controller import Controller
+from regen.manipulation.world.tasks import BehaviorDef
 
 
 def run_script(ctl: Controller, behavior: BehaviorDef, furniture: str, item: str | None) -> bool:

@@ -23,3 +23,6 @@ def pybullet_data_path() -> str:
     except ImportError:
         raise DependencyNotInstalled("pybullet", "manipulation", "the Franka Panda model") from None
     return pybullet_data.getDataPath()
+
+
+__all__ = ["pybullet", "pybullet_data_path"]

@@ -6,7 +6,7 @@ import pytest
 
 from regen.core import Scenario
 from regen.errors import ConfigError
-from regen.manipulation.setting import ManipulationWorld
+from regen.manipulation.world.setting import ManipulationWorld
 
 
 def _scenario(world: dict) -> Scenario:

@@ -43,7 +43,7 @@ class BehaviorDef:
     id: str
     text: str  # canonical text
     keywords: tuple[str, ...]  # lower-case words/phrases that point to this behavior
-    furniture: str  # furniture kind (regen.manipulation.urdf.FURNITURE)
+    furniture: str  # furniture kind (regen.manipulation.world.furniture.FURNITURE)
     asset: str  # asset database id of the furniture entity
     pose: tuple[float, float]  # furniture origin in the world [m]; robot base at (0, 0)
     start_fraction: float  # initial joint opening (0 closed .. 1 open)

@@ -13,7 +13,7 @@ from regen.core.scenario import WorldSettings
 
 class ManipulationParams(BehaviorParams):
     """A manipulation behavior's parameters: the reward function (a task of
-    :mod:`regen.manipulation.behaviors`, e.g. ``open_door``; default: the one its text describes)."""
+    :mod:`regen.manipulation.world.tasks`, e.g. ``open_door``; default: the one its text describes)."""
 
     reward: str | None = Field(default=None, description="Id of a reward function")
 
@@ -22,7 +22,7 @@ class ManipulationWorld(WorldSettings):
     """``Scenario.world`` of a manipulation scenario. Keys are written in field order, unset ones
     (None) left out; keys of other writers are kept."""
 
-    behavior: str = ""  # the task's id (regen.manipulation.behaviors); empty: none named
+    behavior: str = ""  # the task's id (regen.manipulation.world.tasks); empty: none named
     duration: float = 12.0  # [s] simulated time cap of one rollout
     seed: int = 0
     simulator: str | None = None  # 'pybullet'
