@@ -3,7 +3,7 @@
     python benchmarks/fidelity_judge.py [--llm local] [--split tune|test|all] [--cache PATH] [--record PATH] [-v]
 
 Runs :func:`regen.verify.fidelity.ask_model`, the call the pipeline makes at grounding when
-the rules cannot decide, on every case of ``regen/evaluation/data/judge_manipulation.jsonl``:
+the rules cannot decide, on every case of ``regen/manipulation/data/judge.jsonl``:
 a cause text that names no asset of the database, and the scene as grounding built it. "Yes"
 (the scene shows the cause) is the positive class: precision is the share of "yes" answers
 that were right (a scene that does not show its cause called shown lowers it), recall the share
@@ -34,7 +34,7 @@ from regen.core.scenario import FSM, Entity, Scenario
 from regen.llm import LLM
 from regen.verify.fidelity import ask_model, check_rules
 
-DATA = ("regen.evaluation", "data/judge_manipulation.jsonl")
+DATA = ("regen.manipulation", "data/judge.jsonl")
 
 
 class JudgeCase(Model):

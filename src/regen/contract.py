@@ -126,6 +126,9 @@ class DomainBackend(ABC):
     predicates_module: ClassVar[str | None] = None
     #: Labeled edge-construction examples shipped with the domain (package, resource), if any.
     edge_examples: ClassVar[tuple[str, str] | None] = None
+    #: Labeled cause texts for ``regen eval --fidelity <domain>`` shipped with the domain
+    #: (package, resource; :mod:`regen.evaluation.fidelity_set`), if any.
+    fidelity_set: ClassVar[tuple[str, str] | None] = None
     #: Captions for the report.
     report_hints: ClassVar[ReportHints] = ReportHints()
     #: Gymnasium environments over this domain's scenarios: env id -> entry point

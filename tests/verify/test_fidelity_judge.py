@@ -100,7 +100,7 @@ def test_a_driving_actor_is_shown_with_its_motion() -> None:
 
 
 def _cases() -> list[dict]:
-    text = resources.files("regen.evaluation").joinpath("data/judge_manipulation.jsonl").read_text(encoding="utf-8")
+    text = resources.files("regen.manipulation").joinpath("data/judge.jsonl").read_text(encoding="utf-8")
     return [json.loads(line) for line in text.splitlines() if line.strip()]
 
 

@@ -69,6 +69,7 @@ class DrivingBackend(DomainBackend):
     predicates_module = "regen.driving.verify.predicates"
     params_model = DrivingParams
     edge_examples = ("regen.driving", "data/edges_example.jsonl")
+    fidelity_set = ("regen.driving", "data/fidelity.jsonl")
     wording = Wording(
         expert="driving scenarios and traffic simulation",
         situation="traffic",

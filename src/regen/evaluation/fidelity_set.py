@@ -4,8 +4,8 @@ One JSON object per line: the behavior (its text, domain and ego template or rew
 text a user insists on, the entities the cause names (each as the assets that may play it, with
 the key states the text implies: ``{"siren": ["on"]}``; ``behavior`` is the motion primitive)
 and a fixed ``split``: ``tune`` (may guide prompt work) or ``test`` (never looked at while
-tuning). Two sets are bundled, ``driving`` and ``manipulation``, written before any tuning on
-them, terse titles among full sentences, every ego behavior and every manipulation task. They
+tuning). Each domain ships its set (:attr:`regen.contract.DomainBackend.fidelity_set`, named by
+the domain: ``driving`` and ``manipulation``), written before any tuning on them, terse titles among full sentences, every ego behavior and every manipulation task. They
 name some assets the databases do not have yet (a tow truck, a road worker, a spill, a
 visitor): a cause nobody can play counts as a miss until the database can play it.
 """
@@ -18,13 +18,15 @@ from typing import Literal
 
 from pydantic import Field, ValidationError
 
+from regen import domains
 from regen.core.base import Model
 from regen.errors import ConfigError
 from regen.promises.files import json_lines, label, text_lines
 
-_PACKAGE = "regen.evaluation"
-_NAMES = {"driving": "data/fidelity_driving.jsonl", "manipulation": "data/fidelity_manipulation.jsonl"}
-_GIVE = f"give a JSON-lines file (one case object per line) or one of: {', '.join(_NAMES)}"
+
+
+def _give() -> str:
+    return f"give a JSON-lines file (one case object per line) or one of: {', '.join(packaged_sets())}"
 
 
 class ExpectedEntity(Model):
@@ -44,18 +46,20 @@ class FidelityCase(Model):
 
 
 def packaged_sets() -> list[str]:
-    """The names of the bundled labeled sets."""
-    return list(_NAMES)
+    """The names of the bundled labeled sets: the registered domains that ship one."""
+    return [name for name in domains.names() if domains.backend_class(name).fidelity_set is not None]
 
 
 def load_cases(source: str | Path) -> list[FidelityCase]:
     """The cases of a JSON-lines file, or of a bundled set by name ('driving', 'manipulation')."""
-    if isinstance(source, str) and source in _NAMES:
-        text = resources.files(_PACKAGE).joinpath(_NAMES[source]).read_text(encoding="utf-8")
+    give = _give()
+    if isinstance(source, str) and source in packaged_sets():
+        package, resource = domains.backend_class(source).fidelity_set or ("", "")
+        text = resources.files(package).joinpath(resource).read_text(encoding="utf-8")
         where = f"bundled set {source!r}"
-        rows = text_lines(text, where, give=_GIVE)
+        rows = text_lines(text, where, give=give)
     else:
-        rows = json_lines(source, what="labeled set", give=_GIVE)
+        rows = json_lines(source, what="labeled set", give=give)
         where = label(source, "labeled set")
     cases: list[FidelityCase] = []
     seen: set[str] = set()
@@ -71,7 +75,7 @@ def load_cases(source: str | Path) -> list[FidelityCase]:
         seen.add(case.id)
         cases.append(case)
     if not cases:
-        raise ConfigError(f"{where} holds no cases: {_GIVE}")
+        raise ConfigError(f"{where} holds no cases: {give}")
     return cases
 
 

@@ -26,6 +26,7 @@ class ManipulationBackend(DomainBackend):
     predicates_module = "regen.manipulation.verify.predicates"
     params_model = ManipulationParams
     edge_examples = ("regen.manipulation", "data/edges_example.jsonl")
+    fidelity_set = ("regen.manipulation", "data/fidelity.jsonl")
     wording = Wording(
         expert="household robot manipulation and home environments",
         situation="home",
