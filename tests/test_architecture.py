@@ -102,3 +102,25 @@ def test_no_product_module_or_class_named_like_a_test() -> None:
     classes = [f"{p.relative_to(SRC)}: {m.group(1)}" for p in SRC.rglob("*.py")
                for m in re.finditer(r"^class (Test\w*)", p.read_text(encoding="utf-8"), re.M)]
     assert not named and not classes, named + classes
+
+
+MAX_FUNCTION_LINES = 80
+
+
+def test_no_function_over_80_lines() -> None:
+    import ast
+
+    long = [f"{p.relative_to(SRC)}:{n.lineno} {n.name} ({n.end_lineno - n.lineno + 1} lines)"
+            for p in sorted(SRC.rglob("*.py")) for n in ast.walk(ast.parse(p.read_text(encoding="utf-8")))
+            if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))
+            and n.end_lineno - n.lineno + 1 > MAX_FUNCTION_LINES]
+    assert not long, "functions over 80 lines: " + "; ".join(long)
+
+
+def test_package_inits_only_reexport() -> None:
+    import ast
+
+    defining = [f"{p.relative_to(SRC)}:{n.lineno} {n.name}"
+                for p in sorted(SRC.rglob("__init__.py")) for n in ast.parse(p.read_text(encoding="utf-8")).body
+                if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef))]
+    assert not defining, "package __init__ files that define functions or classes: " + "; ".join(defining)

@@ -13,7 +13,7 @@ import logging
 import os
 import re
 from collections.abc import Callable
-from typing import Any, TypeVar
+from typing import Annotated, Any, TypeVar
 
 import typer
 from rich.console import Console
@@ -122,7 +122,7 @@ def predicates_cmd(domain: str = typer.Argument(None, help=f"A domain ({', '.joi
 @friendly
 def model_status() -> None:
     """Which offline models are installed, joined and verified."""
-    from regen.llm.model_files import MODELS, ModelFileError, _stamp_ok
+    from regen.llm.model_files import MODELS, ModelFileError, stamp_ok
     from regen.paths import cache_dir
 
     for spec in MODELS.values():
@@ -132,7 +132,7 @@ def model_status() -> None:
             installed = "installed"
         except ModelFileError:
             installed = "not installed"
-        joined = ("joined, verified" if target.exists() and _stamp_ok(target, spec.sha256)
+        joined = ("joined, verified" if target.exists() and stamp_ok(target, spec.sha256)
                   else "joined, not verified" if target.exists() else "not joined")
         console.print(f"{spec.alias}: {spec.description}; chunks {installed}; {joined} ({target})")
 
@@ -186,25 +186,37 @@ TRAJECTORY_HELP = ("Driving: a recorded ego trajectory (CSV with a header t,x,y 
 LLM_TIMEOUT_HELP = ("Seconds to wait for one request to a remote model before retrying it (4 tries "
                     "in all); default: REGEN_LLM_TIMEOUT, else 120")
 
+# the options expand and generate share, declared once (each command gives the default with =)
+DomainOption = Annotated[str, typer.Option("--domain", "-d", help=DOMAIN_HELP)]
+LlmOption = Annotated[str, typer.Option("--llm", help=LLM_HELP)]
+ReplayOption = Annotated[bool, typer.Option("--replay", help="Forbid model calls: cached answers only")]
+DepthOption = Annotated[int, typer.Option("--depth", min=1, max=6, help="Event layers behind the behavior")]
+MaxNodesOption = Annotated[int, typer.Option("--max-nodes", min=1, help="Most cause events to accept")]
+CausesOption = Annotated[int, typer.Option("--causes", min=1, max=12, help="Causes proposed per event")]
+PriorOption = Annotated[str, typer.Option("--prior", help="Steer proposals, e.g. 'police car'")]
+CandidateOption = Annotated[list[str], typer.Option("--candidate", help=CANDIDATE_HELP)]
+CauseOption = Annotated[list[str], typer.Option("--cause", help=CAUSE_HELP)]
+LlmTimeoutOption = Annotated[float, typer.Option("--llm-timeout", min=0.1, help=LLM_TIMEOUT_HELP)]
+
 
 @app.command("expand")
 @friendly
 def expand_cmd(
     behavior: str = typer.Argument(..., help="The robot behavior, e.g. 'the ego-vehicle stops abruptly'"),
-    domain: str = typer.Option(..., "--domain", "-d", help=DOMAIN_HELP),
+    domain: DomainOption = ...,
     out: str = typer.Option(..., "--out", "-o", help="Folder for graph.json, graph.png, graph.html"),
-    llm: str = typer.Option("local", "--llm", help=LLM_HELP),
-    depth: int = typer.Option(_LIMITS.max_depth, "--depth", min=1, max=6, help="Event layers behind the behavior"),
-    max_nodes: int = typer.Option(_LIMITS.max_nodes, "--max-nodes", min=1, help="Most cause events to accept"),
+    llm: LlmOption = "local",
+    depth: DepthOption = _LIMITS.max_depth,
+    max_nodes: MaxNodesOption = _LIMITS.max_nodes,
     max_calls: int = typer.Option(None, "--max-calls", min=1, help="Stop after this many model calls"),
     max_tokens: int = typer.Option(None, "--max-tokens", min=1, help="Stop after this many tokens"),
-    causes: int = typer.Option(_LIMITS.max_causes, "--causes", min=1, max=12, help="Causes proposed per event"),
-    prior: str = typer.Option(None, "--prior", help="Steer proposals, e.g. 'police car'"),
-    candidate: list[str] = typer.Option(None, "--candidate", help=CANDIDATE_HELP),
-    cause: list[str] = typer.Option(None, "--cause", help=CAUSE_HELP),
+    causes: CausesOption = _LIMITS.max_causes,
+    prior: PriorOption = None,
+    candidate: CandidateOption = None,
+    cause: CauseOption = None,
     cache: str = typer.Option(None, "--cache", help="LLM cache file (default: llm-cache.sqlite in --out)"),
-    replay: bool = typer.Option(False, "--replay", help="Forbid model calls: cached answers only"),
-    llm_timeout: float = typer.Option(None, "--llm-timeout", min=0.1, help=LLM_TIMEOUT_HELP),
+    replay: ReplayOption = False,
+    llm_timeout: LlmTimeoutOption = None,
 ) -> None:
     """Infer a causal graph of events, entities and properties behind a behavior (paper Alg. 1)."""
     from rich.live import Live
@@ -266,24 +278,24 @@ app.add_typer(runs_app, name="runs")
 def generate_cmd(
     behavior: str = typer.Argument(None, help="The robot behavior, e.g. 'the ego-vehicle stops abruptly' "
                                    "(with --ego-trajectory: default, the behavior detected in it)"),
-    domain: str = typer.Option(..., "--domain", "-d", help=DOMAIN_HELP),
+    domain: DomainOption = ...,
     out: str = typer.Option(..., "--out", "-o", help="Run folder (rerun the same command to resume)"),
-    llm: str = typer.Option("local", "--llm", help=LLM_HELP),
-    replay: bool = typer.Option(False, "--replay", help="Forbid model calls: cached answers only"),
-    depth: int = typer.Option(_LIMITS.max_depth, "--depth", min=1, max=6, help="Event layers behind the behavior"),
-    max_nodes: int = typer.Option(_LIMITS.max_nodes, "--max-nodes", min=1, help="Most cause events to accept"),
+    llm: LlmOption = "local",
+    replay: ReplayOption = False,
+    depth: DepthOption = _LIMITS.max_depth,
+    max_nodes: MaxNodesOption = _LIMITS.max_nodes,
     scenarios: int = typer.Option(_SETTINGS.max_scenarios, "--scenarios", "-n", min=1, help="Most scenarios to simulate"),
-    causes: int = typer.Option(_LIMITS.max_causes, "--causes", min=1, max=12, help="Causes proposed per event"),
-    prior: str = typer.Option(None, "--prior", help="Steer proposals, e.g. 'police car'"),
-    candidate: list[str] = typer.Option(None, "--candidate", help=CANDIDATE_HELP),
-    cause: list[str] = typer.Option(None, "--cause", help=CAUSE_HELP),
+    causes: CausesOption = _LIMITS.max_causes,
+    prior: PriorOption = None,
+    candidate: CandidateOption = None,
+    cause: CauseOption = None,
     template: str = typer.Option(None, "--ego", help="Driving: ego behavior template (default: from the text)"),
     reward: str = typer.Option(None, "--reward", help="Manipulation: reward function id (default: from the text)"),
     seed: int = typer.Option(0, "--seed", help="Seed for solving and simulation"),
     workers: int = typer.Option(1, "--workers", min=1, max=64, help="Processes for simulation"),
     no_pictures: bool = typer.Option(False, "--no-pictures", help="Skip GIFs and key frames"),
     log: str = typer.Option("rich", "--log", help="Progress: rich (default), quiet, or jsonl (stdout)"),
-    llm_timeout: float = typer.Option(None, "--llm-timeout", min=0.1, help=LLM_TIMEOUT_HELP),
+    llm_timeout: LlmTimeoutOption = None,
     fresh: bool = typer.Option(False, "--fresh", help="Discard an earlier run in --out instead of "
                                "resuming it (its model cache is kept)"),
     trajectory: str = typer.Option(None, "--ego-trajectory", help=TRAJECTORY_HELP),
@@ -291,7 +303,6 @@ def generate_cmd(
                                  "map's coordinates (straight, four_way, t_junction)"),
 ) -> None:
     """The main job: behavior -> causal graph -> scenarios -> simulation -> verdicts -> report."""
-    from regen.core.behavior import make_behavior
     from regen.errors import ConfigError
     from regen.pipeline import generate
     from regen.progress import make_progress
@@ -301,27 +312,8 @@ def generate_cmd(
     out_dir = out_folder(out)
     if log not in ("rich", "quiet", "jsonl"):
         raise ConfigError(f"--log must be rich, quiet or jsonl, not {log!r}")
-    extra: dict[str, Any] = {}
-    if template:
-        extra["ego_template"] = template
-    if reward:
-        extra["reward"] = reward
-    if trajectory is not None:
-        from regen import domains
-
-        if template:
-            raise ConfigError("--ego and --ego-trajectory both say what the ego does; give one")
-        behavior, params, lines = domains.make(domain).recorded_behavior(trajectory, map_name=map_name,
-                                                                        text=behavior)
-        extra.update(params)
-        for line in lines:
-            err_console.print(shown(line))
-    elif map_name is not None:
-        raise ConfigError("--map says which map an --ego-trajectory file's coordinates are in; give the file too")
-    elif behavior is None:
-        raise ConfigError("give the behavior as text (e.g. 'the ego-vehicle stops abruptly') or a recorded "
-                          "trajectory with --ego-trajectory FILE")
-    b = make_behavior(behavior, domain, **extra)
+    b = _behavior_to_generate(behavior, domain, template=template, reward=reward, trajectory=trajectory,
+                              map_name=map_name)
     settings = RunSettings(llm=llm, depth=depth, max_nodes=max_nodes, max_scenarios=scenarios,
                            causes=causes, prior=prior, candidates=candidate or [],
                            forced_causes=cause or [], seed=seed,
@@ -334,8 +326,40 @@ def generate_cmd(
             err_console.print(f"[yellow]interrupted: finished scenarios are saved in {shown(out)}; "
                               "run the same command again to resume[/]")
             raise typer.Exit(130) from None
-    if log == "jsonl":
-        return
+    if log != "jsonl":
+        _print_generated(result, out_dir)
+
+
+def _behavior_to_generate(behavior: str | None, domain: str, *, template: str | None, reward: str | None,
+                          trajectory: str | None, map_name: str | None):
+    """The behavior ``regen generate`` explains: the text with the ego template (--ego) or reward
+    (--reward) it names, or what a recorded ego trajectory shows (its lines told on stderr)."""
+    from regen.core.behavior import make_behavior
+    from regen.errors import ConfigError
+
+    extra: dict[str, Any] = {}
+    if template:
+        extra["ego_template"] = template
+    if reward:
+        extra["reward"] = reward
+    if trajectory is not None:
+        if template:
+            raise ConfigError("--ego and --ego-trajectory both say what the ego does; give one")
+        behavior, params, lines = domains.make(domain).recorded_behavior(trajectory, map_name=map_name,
+                                                                        text=behavior)
+        extra.update(params)
+        for line in lines:
+            err_console.print(shown(line))
+    elif map_name is not None:
+        raise ConfigError("--map says which map an --ego-trajectory file's coordinates are in; give the file too")
+    elif behavior is None:
+        raise ConfigError("give the behavior as text (e.g. 'the ego-vehicle stops abruptly') or a recorded "
+                          "trajectory with --ego-trajectory FILE")
+    return make_behavior(behavior, domain, **extra)
+
+
+def _print_generated(result, out_dir) -> None:
+    """A finished run in the terminal: how many scenarios are feasible and why not, then each one."""
     from regen.pipeline import summarize
     from regen.pipeline.terminal import print_outcomes
 
@@ -435,54 +459,27 @@ def runs_show(run: str = typer.Argument(..., help="A run folder")) -> None:
                       "without their cause")
 
 
-def _mount_whatif() -> None:
+def _mount_commands() -> None:
+    """The commands that other packages define, in the order --help lists them."""
+    from regen.augment.cli import augment_command
+    from regen.evaluation.cli import eval_command
+    from regen.harness.cli import test_command
+    from regen.pipeline.import_cli import import_command
     from regen.whatif.cli import whatif_command
 
     app.command("whatif", help="Counterfactual what-if: edit a scenario's cause chain (--set, --remove, "
                                "--add, --ask), then ground, simulate and verify it again.")(friendly(whatif_command))
-
-
-_mount_whatif()
-
-
-def _mount_augment() -> None:
-    from regen.augment.cli import augment_command
-
     app.command("augment", help="Augment a scene: the model proposes causes to add and entities that do not "
                                 "matter; each is grounded, simulated and verified.")(friendly(augment_command))
-
-
-_mount_augment()
-
-
-def _mount_eval() -> None:
-    from regen.evaluation.cli import eval_command
-
     app.command("eval", help="Diversity (embedding, Self-BLEU), feasibility, controllability, "
                              "edge-construction accuracy over run folders or text sets.")(eval_command)
-
-
-_mount_eval()
-
-
-def _mount_test() -> None:
-    from regen.harness.cli import test_command
-
     app.command("test", help="Run a policy through a run's verified scenarios: pass/fail, "
                              "collisions, tests.json and junit.xml.")(test_command)
-
-
-_mount_test()
-
-
-def _mount_import() -> None:
-    from regen.pipeline.import_cli import import_command
-
     app.command("import", help="Import a scenario file (OpenSCENARIO .xosc for driving): its storyboard "
                                "becomes a scenario with an FSM, simulated and verified.")(friendly(import_command))
 
 
-_mount_import()
+_mount_commands()
 
 
 def print_json(value: Any) -> None:

@@ -25,7 +25,7 @@ from typing import Any, Literal
 import networkx as nx
 from pydantic import Field, ValidationError, model_validator
 
-from regen.assets.names import (
+from regen.assets.matching import (
     DESCRIPTION_WEIGHT,
     MATCH_THRESHOLD,
     main_phrases,
@@ -210,7 +210,7 @@ class AssetDatabase(Naming, Model):
 
     def named_property_states(self, event: str) -> list[tuple[str, str, str]]:
         """(property, state, phrase) for every state ``event``'s words name, whoever could hold
-        it (motions excluded: :meth:`named_motions`); :func:`~regen.assets.names.phrases_in`."""
+        it (motions excluded: :meth:`named_motions`); :func:`~regen.assets.matching.phrases_in`."""
         return phrases_in(event, {p: s.named_by for p, s in self.properties.items() if p != "behavior"})
 
     def named_state(self, asset: str, prop: str, event: str) -> tuple[str, str] | None:

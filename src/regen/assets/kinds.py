@@ -18,7 +18,7 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 
-from regen.assets.names import without_robot
+from regen.assets.matching import without_robot
 from regen.core.words import singular, surface_words
 
 #: Words (singular, lower case) that name a person.

@@ -5,7 +5,7 @@ that several share ('a distracted driver': a driver's state, held by every vehic
 :class:`Naming` is a part of :class:`~regen.assets.database.AssetDatabase`, kept apart so that
 the database's format and loading stay readable.
 
-Imports: the shared core and the assets' name rules only.
+Imports: the shared core and the assets' name matching only.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, Literal
 
 from regen.assets.kinds import beings_named, kinds_of
-from regen.assets.names import (
+from regen.assets.matching import (
     FUNCTION_WORDS,
     PARAPHRASE_THRESHOLD,
     key_vectors,

@@ -100,6 +100,11 @@ class Entity(Model):
         # scenario.json files written before every domain called its robot 'robot'
         return "robot" if v == "ego" else v
 
+    @property
+    def is_robot(self) -> bool:
+        """Whether this is the robot whose behavior the scenario explains (kind 'robot')."""
+        return self.kind == "robot"
+
 
 class SolverReport(Model):
     status: Literal["optimal", "feasible", "infeasible", "model_invalid", "unknown", "not_run"] = "not_run"
@@ -147,7 +152,7 @@ class Scenario(Model):
 
     def robot(self) -> Entity | None:
         """The entity whose behavior the scenario explains (kind 'robot'), if any."""
-        return next((e for e in self.entities if e.kind == "robot"), None)
+        return next((e for e in self.entities if e.is_robot), None)
 
     def entity(self, name: str) -> Entity:
         for e in self.entities:

@@ -24,7 +24,6 @@ from regen.errors import ConfigError
 from regen.promises.files import json_lines, label, text_lines
 
 
-
 def _give() -> str:
     return f"give a JSON-lines file (one case object per line) or one of: {', '.join(packaged_sets())}"
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 
-from regen.assets.names import without_robot
+from regen.assets.matching import without_robot
 from regen.core.words import lowered
 
 _PLACE = (r"(?:city|town|country|state|province|village|district|neighbou?rhood|suburb|street|road|"

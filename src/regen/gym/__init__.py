@@ -10,41 +10,8 @@ Env classes are imported on first use; ``from regen.gym import <EnvClass>`` impo
 class name.
 """
 
-from __future__ import annotations
-
-import importlib
-
-from regen import domains
-from regen.errors import DependencyNotInstalled
-
-try:
-    from gymnasium.envs.registration import register, registry
-except ImportError as exc:  # pragma: no cover - the extra is missing
-    raise DependencyNotInstalled("gymnasium", "gym", "the regen Gymnasium environments") from exc
-
-
-def _envs() -> dict[str, str]:
-    """Env id -> entry point of every registered domain."""
-    out: dict[str, str] = {}
-    for name in domains.names():
-        out.update(domains.backend_class(name).gym_envs)
-    return out
-
-
-ENVS = _envs()
-ENV_IDS = sorted(ENVS)
-
-for _id, _entry in ENVS.items():
-    if _id not in registry:
-        register(id=_id, entry_point=_entry, nondeterministic=False)
-
-
-def __getattr__(name: str):
-    for entry in ENVS.values():
-        module, _, cls = entry.partition(":")
-        if cls == name:
-            return getattr(importlib.import_module(module), cls)
-    raise AttributeError(f"module 'regen.gym' has no attribute {name!r}")
-
+# env_class is the module's attribute hook (PEP 562): env classes are imported on first use
+from regen.gym.registration import ENV_IDS, ENVS
+from regen.gym.registration import env_class as __getattr__  # noqa: F401
 
 __all__ = ["ENVS", "ENV_IDS"]

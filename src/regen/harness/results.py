@@ -31,11 +31,11 @@ from regen.runfolder import RunFolder, ScenarioFolder, read_json
 
 SETTINGS = "settings.json"
 CASES = RunFolder.TEST_CASES
-TESTS_JSON = "tests.json"
+TESTS_JSON = RunFolder.TESTS_JSON
 JUNIT = "junit.xml"
 POLICY_LOG = "policy.log"
 LOCK = ".lock"
-RUN_LOCK = ".lock"  # regen generate's lock file in the run folder (RunFolder.LOCK)
+RUN_LOCK = RunFolder.LOCK  # regen generate's lock file in the run folder
 _CASE_FILE = re.compile(r".+-v\d+\.json")
 
 

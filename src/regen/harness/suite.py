@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -174,10 +175,7 @@ def run_tests(run_dir: str | Path, policy_spec: str, *, variants: int = 1, seed:
     without a policy harness; faults of single scenarios become failed (error) tests.
     """
     from regen.harness.process import PolicyProcess
-    from regen.harness.results import POLICY_LOG, ResultsFolder, policy_digest, scenario_digest
-    from regen.interrupts import Interrupts
-    from regen.report.load import causal_text
-    from regen.runfolder import read_model
+    from regen.harness.results import POLICY_LOG, ResultsFolder, policy_digest
 
     if oracle not in ORACLES:
         raise ConfigError(f"unknown oracle {oracle!r}; choose one of: {', '.join(ORACLES)}")
@@ -191,7 +189,9 @@ def run_tests(run_dir: str | Path, policy_spec: str, *, variants: int = 1, seed:
     timeout = harness.step_timeout if step_timeout is None else step_timeout
     report = SuiteReport(run=str(rf.path), policy=policy_spec, domain=domain, robot=harness.robot,
                          oracle=oracle, seed=seed, variants=variants, adversarial=adversarial)
-    remote: PolicyProcess | None = None
+    suite = _Suite(harness=harness, report=report, oracle=oracle, variants=variants, seed=seed,
+                   adversarial=adversarial, timeout=timeout, results=results, policy=policy,
+                   on_case=on_case, on_episode=on_episode, on_note=on_note)
     try:
         if results is not None:
             settings = {"policy": policy_spec, "policy_digest": policy_digest(policy_spec),
@@ -201,58 +201,55 @@ def run_tests(run_dir: str | Path, policy_spec: str, *, variants: int = 1, seed:
             if note and on_note is not None:
                 on_note(note)
         if policy is None:
-            remote = PolicyProcess(harness, policy_spec,
-                                   log_path=results.path / POLICY_LOG if results is not None else None)
-            remote.start()
+            suite.remote = PolicyProcess(harness, policy_spec,
+                                         log_path=results.path / POLICY_LOG if results is not None else None)
+            suite.remote.start()
         if results is not None:  # after the policy loaded: a refused policy leaves nothing in the run
             results.hold_run(rf.path)
-        pol = policy if policy is not None else remote
+        suite.run(rf, domain)
+        if results is not None:
+            results.write(report)
+    finally:
+        if suite.remote is not None:
+            suite.remote.close()
+        if results is not None:
+            results.close()
+    return report
 
-        def run_one(name: str, scenario: Scenario, k: int, template_trace: Trace | None, base: dict) -> CaseResult:
-            if remote is not None:
-                remote.ensure_fresh()  # a policy that faulted in the last case starts afresh
-            try:
-                prep = harness.prepare(scenario)
-                t0 = time.perf_counter()
-                episode = harness.run_policy(prep, pol, step_timeout=timeout)
-                case = judge(harness, scenario, episode, folder=name, variant=k,
-                             wall=time.perf_counter() - t0, oracle=oracle, template_trace=template_trace)
-                for key, value in base.items():
-                    setattr(case, key, value)
-                if on_episode is not None:  # e.g. keep the failed episode's trace and picture
-                    on_episode(case, episode, prep)
-            except Exception as exc:  # noqa: BLE001 - one broken scenario is one error case
-                case = _error_case(name, scenario.id, k, adversarial, exc, base)
-            return case
 
-        reused: list[CaseResult] = []
+@dataclass
+class _Suite:
+    """One call of :func:`run_tests` once its policy runs: the cases of each scenario folder,
+    each judged and recorded (in ``report``, and in ``results`` when given) as it finishes."""
+
+    harness: PolicyHarness
+    report: SuiteReport
+    oracle: str
+    variants: int
+    seed: int
+    adversarial: bool
+    timeout: float  # [s] per policy call
+    results: Any  # the ResultsFolder, or None
+    policy: Callable | None  # the in-process policy, or None: ``remote`` runs it
+    on_case: Callable[[CaseResult], None] | None
+    on_episode: Callable[[CaseResult, object, object], None] | None
+    on_note: Callable[[str], None] | None
+    remote: Any = None  # the PolicyProcess
+    reused: list[CaseResult] = field(default_factory=list)  # cases kept from an earlier run
+
+    def run(self, rf: Any, domain: str) -> None:
+        """Every case of every scenario folder of the run, in run order; a first Ctrl-C lets the
+        current case finish and keeps it, then raises KeyboardInterrupt."""
+        from regen.harness.results import scenario_digest
+        from regen.interrupts import Interrupts
+        from regen.report.load import causal_text
+
         with Interrupts() as interrupts:
             for name, folder, scenario, verdict, problem in _suite_entries(rf, domain):
-                digest = scenario_digest(folder.path) if results is not None else ""
-
-                def reuse(k: int, name: str = name, digest: str = digest) -> CaseResult | None:
-                    kept = results.reuse(f"{name}-v{k}", digest) if results is not None else None
-                    if kept is not None and not reused and on_note is not None:
-                        on_note("resuming: the cases this command finished before are kept, not run again")
-                    if kept is not None:
-                        reused.append(kept)
-                    return kept
-
-                if scenario is None or problem:
-                    if verdict is not None and not verdict.feasible:
-                        continue  # an unreadable scenario that did not verify tests nothing anyway
-                    cases: Any = [_error_case(name, scenario.id if scenario else "", 0, adversarial,
-                                              f"its {problem}")]
-                elif verdict is None or not verdict.feasible:
-                    why = "unfinished" if verdict is None else verdict.status
-                    cases = [CaseResult(scenario=name, scenario_id=scenario.id, status="skipped",
-                                        adversarial=adversarial,
-                                        message=f"the scenario did not verify with the scripted {harness.robot} "
-                                                f"({why}); it tests nothing")]
-                else:
-                    cases = _variant_cases(harness, name, scenario, verdict,
-                                           read_model(folder / folder.TRACE, Trace).value, variants=variants,
-                                           seed=seed, adversarial=adversarial, run_one=run_one, reuse=reuse)
+                digest = scenario_digest(folder.path) if self.results is not None else ""
+                cases = self.cases(name, folder, scenario, verdict, problem, digest)
+                if cases is None:
+                    continue
                 pending = iter(cases)
                 causal = causal_text(verdict.causal) if verdict is not None else None
                 while True:
@@ -261,21 +258,67 @@ def run_tests(run_dir: str | Path, policy_spec: str, *, variants: int = 1, seed:
                     if case is None:
                         break
                     case.causal = causal  # the scenario's causal check, beside the test's result
-                    report.cases.append(case)
-                    if results is not None:
-                        results.keep(case, digest)
-                        results.write(report)
-                    if on_case is not None:
-                        on_case(case)
+                    self.record(case, digest)
                     interrupts.check()
-        if results is not None:
-            results.write(report)
-    finally:
-        if remote is not None:
-            remote.close()
-        if results is not None:
-            results.close()
-    return report
+
+    def cases(self, name: str, folder: Any, scenario: Scenario | None, verdict: Verdict | None, problem: str,
+              digest: str) -> Iterable[CaseResult] | None:
+        """The cases of one scenario folder: an error case for one that cannot be read, a skipped
+        case for one that did not verify, else its variants' (None: it tests nothing, left out)."""
+        from regen.runfolder import read_model
+
+        adversarial = self.adversarial
+        if scenario is None or problem:
+            if verdict is not None and not verdict.feasible:
+                return None  # an unreadable scenario that did not verify tests nothing anyway
+            return [_error_case(name, scenario.id if scenario else "", 0, adversarial, f"its {problem}")]
+        if verdict is None or not verdict.feasible:
+            why = "unfinished" if verdict is None else verdict.status
+            return [CaseResult(scenario=name, scenario_id=scenario.id, status="skipped", adversarial=adversarial,
+                               message=f"the scenario did not verify with the scripted {self.harness.robot} "
+                                       f"({why}); it tests nothing")]
+        return _variant_cases(self.harness, name, scenario, verdict,
+                              read_model(folder / folder.TRACE, Trace).value, variants=self.variants,
+                              seed=self.seed, adversarial=adversarial, run_one=self.run_one,
+                              reuse=lambda k: self.reuse(name, digest, k))
+
+    def reuse(self, name: str, digest: str, k: int) -> CaseResult | None:
+        """The finished case of variant ``k`` from an earlier run of the same call, if any."""
+        kept = self.results.reuse(f"{name}-v{k}", digest) if self.results is not None else None
+        if kept is not None and not self.reused and self.on_note is not None:
+            self.on_note("resuming: the cases this command finished before are kept, not run again")
+        if kept is not None:
+            self.reused.append(kept)
+        return kept
+
+    def run_one(self, name: str, scenario: Scenario, k: int, template_trace: Trace | None,
+                base: dict) -> CaseResult:
+        """The policy in one variant of a scenario, judged by the oracle (an error case if it breaks)."""
+        if self.remote is not None:
+            self.remote.ensure_fresh()  # a policy that faulted in the last case starts afresh
+        pol = self.policy if self.policy is not None else self.remote
+        try:
+            prep = self.harness.prepare(scenario)
+            t0 = time.perf_counter()
+            episode = self.harness.run_policy(prep, pol, step_timeout=self.timeout)
+            case = judge(self.harness, scenario, episode, folder=name, variant=k,
+                         wall=time.perf_counter() - t0, oracle=self.oracle, template_trace=template_trace)
+            for key, value in base.items():
+                setattr(case, key, value)
+            if self.on_episode is not None:  # e.g. keep the failed episode's trace and picture
+                self.on_episode(case, episode, prep)
+        except Exception as exc:  # noqa: BLE001 - one broken scenario is one error case
+            case = _error_case(name, scenario.id, k, self.adversarial, exc, base)
+        return case
+
+    def record(self, case: CaseResult, digest: str) -> None:
+        """A finished case: in the report, written to the results folder, told to ``on_case``."""
+        self.report.cases.append(case)
+        if self.results is not None:
+            self.results.keep(case, digest)
+            self.results.write(self.report)
+        if self.on_case is not None:
+            self.on_case(case)
 
 
 __all__ = ["harness_for", "open_suite", "run_domain", "run_tests"]

@@ -85,7 +85,7 @@ def _stamp_path(path: Path) -> Path:
     return path.with_name(path.name + ".verified.json")
 
 
-def _stamp_ok(path: Path, sha: str) -> bool:
+def stamp_ok(path: Path, sha: str) -> bool:
     try:
         stamp = json.loads(_stamp_path(path).read_text())
         st = path.stat()
@@ -102,7 +102,7 @@ def _write_stamp(path: Path, sha: str) -> None:
 
 def verify(path: Path, sha: str, *, force: bool = False) -> None:
     """Check ``path`` against ``sha``; raise ModelFileError on a mismatch."""
-    if not force and _stamp_ok(path, sha):
+    if not force and stamp_ok(path, sha):
         return
     actual = sha256_file(path)
     if actual != sha:

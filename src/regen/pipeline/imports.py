@@ -20,10 +20,10 @@ from regen.contract import DomainBackend
 from regen.core.graph import CausePath
 from regen.core.verdict import Verdict
 from regen.errors import ConfigError
-from regen.pipeline import RunResult, RunSettings, ScenarioOutcome, _finish
-from regen.pipeline.stages import simulate_stage
+from regen.pipeline.stages import ScenarioOutcome, simulate_stage
+from regen.pipeline.summary import RunResult, finish
 from regen.promises.names import slug
-from regen.runfolder import RunFolder
+from regen.runfolder import RunFolder, RunSettings
 from regen.runfolder.manifest import now
 
 
@@ -86,7 +86,7 @@ def import_file(file: str | Path, out: str | Path, *, domain: str | None = None,
         emit("scenario_done", name=name, feasible=done.feasible, status=done.status, reason=done.reason)
         manifest.status = "done"
         manifest.finished = now()
-        _finish(run, manifest, [outcome], emit)
+        finish(run, manifest, [outcome], emit)
     finally:
         run.unlock()
     return RunResult(run.path, manifest, None, [outcome])

@@ -206,7 +206,7 @@ def narrative_claims(backend: DomainBackend, scenario: Scenario, trace: Trace) -
     if harness is not None and robot is not None:
         collisions = [i.message for i in harness.incidents(scenario, trace) if i.collision]
     db = backend.database()
-    cast = [(e.name, e.asset) for e in scenario.entities if e.kind != "robot" and e.asset in db.assets]
+    cast = [(e.name, e.asset) for e in scenario.entities if not e.is_robot and e.asset in db.assets]
     shown: dict[str, dict[str, set[str]]] = {}
     for name, _ in cast:
         e, recorded = scenario.entity(name), trace.actors.get(name)

@@ -62,7 +62,7 @@ class ScenarioView:
     @property
     def assets(self) -> list[str]:
         if self.scenario is not None:
-            return [e.asset for e in self.scenario.entities if e.kind != "robot"]
+            return [e.asset for e in self.scenario.entities if not e.is_robot]
         if self.path is not None:
             return [e.asset for e in self.path.entities]
         return []

@@ -26,7 +26,8 @@ from regen.runfolder.manifest import RunManifest
 from regen.runfolder.readers import read_model
 
 if TYPE_CHECKING:
-    from regen.runfolder import RunFolder, ScenarioFolder
+    from regen.runfolder.run import RunFolder
+    from regen.runfolder.scenario import ScenarioFolder
 
 
 @dataclass

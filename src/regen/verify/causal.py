@@ -76,7 +76,7 @@ def split_cast(scenario: Scenario, db: AssetDatabase, *, robot: Sequence[str] = 
     The cause is the entities answering to an asset the cause events' words name; where they
     name none, the entities the causal graph chose (``graph_assets``, in order, matched by
     asset); without those, every entity."""
-    cast = [e for e in scenario.entities if e.kind != "robot" and e.asset not in own]
+    cast = [e for e in scenario.entities if not e.is_robot and e.asset not in own]
     named = named_by_causes(db, scenario.causal_graph[:-1] or scenario.causal_graph, robot=robot, own=own)
     cause = [e.name for e in cast if answers_to_any(db, e.asset, named)]
     if cause:

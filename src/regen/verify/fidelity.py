@@ -31,6 +31,7 @@ Imports: the shared core, embeddings, assets and llm; no domain.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Literal
 
 from regen.core.base import Answer
@@ -76,7 +77,7 @@ def check_rules(scenario: Scenario, db: AssetDatabase, *, robot: str | Sequence[
     kind loosely ('someone' is closest to a person, and a child is someone too), so grounding
     selects that asset but the check does not insist on it."""
     encoder = optional_encoder() if paraphrases else None
-    cast = [e for e in scenario.entities if e.kind != "robot" and e.asset not in own
+    cast = [e for e in scenario.entities if not e.is_robot and e.asset not in own
             and e.asset in db.assets]
     shown = [_shown(e) for e in cast]
     causes = scenario.causal_graph[:-1] or scenario.causal_graph
@@ -84,78 +85,119 @@ def check_rules(scenario: Scenario, db: AssetDatabase, *, robot: str | Sequence[
         word = robot if isinstance(robot, str) else (robot[0] if robot else "")
         return Fidelity(status="unfaithful", reason="the scenario shows no entity of its cause, only the "
                         f"{word or 'robot'} and its task's own objects", named=[], shown=shown)
-    named: list[str] = []
-    missing: list[str] = []
-    wrong: list[str] = []
+    rules = _Rules(db, cast, robot=robot, own=own, trace=trace, encoder=encoder)
     for event in causes:
+        by_name = rules.assets(event)
+        rules.beings(event, by_name)
+        rules.motions(event)
+        rules.states(event)
+    named = rules.named
+    if rules.missing or rules.wrong:
+        return Fidelity(status="unfaithful", named=named, shown=shown,
+                        reason="; ".join(rules.missing + rules.wrong) + f"; the scenario shows {', '.join(shown)}")
+    if not any(not n.count(".") for n in named):  # no asset named: rules cannot say who plays it
+        return _no_asset_named(scenario, db, causes, cast, named, shown)
+    return Fidelity(status="faithful", named=named, shown=shown,
+                    reason=f"shows what the cause names: {', '.join(dict.fromkeys(named))}")
+
+
+@dataclass
+class _Rules:
+    """The rules of :func:`check_rules` applied to one cause event after the other: what the words
+    name (``named``), what the scenario lacks (``missing``) and the states it has wrong (``wrong``)."""
+
+    db: AssetDatabase
+    cast: list[Entity]  # the entities that may play a cause
+    robot: str | Sequence[str]
+    own: frozenset[str]
+    trace: Trace | None
+    encoder: object | None  # the sentence-embedding model (paraphrases), or None
+    named: list[str] = field(default_factory=list)
+    missing: list[str] = field(default_factory=list)
+    wrong: list[str] = field(default_factory=list)
+
+    def assets(self, event: str) -> list:
+        """1. every asset the words name is played by an entity that answers to its name; returns
+        those named."""
+        db, robot, own = self.db, self.robot, self.own
         by_name = db.named_in(event, exclude=robot, skip=own)  # a state alone names no entity here
         by_name += db.implied_by_words(event, exclude=robot, skip=own | {m.asset for m in by_name})
-        if encoder is not None:
-            by_name += db.paraphrased_in(event, encoder, exclude=robot, skip=own)
+        if self.encoder is not None:
+            by_name += db.paraphrased_in(event, self.encoder, exclude=robot, skip=own)
         for m in by_name:
-            named.append(m.asset)
-            if not any(e.asset == m.asset or db.answers_to(e.asset, m.key) for e in cast):
+            self.named.append(m.asset)
+            if not any(e.asset == m.asset or db.answers_to(e.asset, m.key) for e in self.cast):
                 if m.via == "words":
-                    missing.append(f"'{event}' implies a {m.asset.replace('_', ' ')} ('{m.key}')")
+                    self.missing.append(f"'{event}' implies a {m.asset.replace('_', ' ')} ('{m.key}')")
                     continue
                 said = f"'{m.phrase}', a close paraphrase of " if m.phrase else ""
-                missing.append(f"'{event}' names {said}a {m.key.replace('_', ' ')}")
-        # 6. a person or an animal the words name, whatever asset plays them; where an asset of
-        # that kind is named, rule 1 holds it to that asset
+                self.missing.append(f"'{event}' names {said}a {m.key.replace('_', ' ')}")
+        return by_name
+
+    def beings(self, event: str, by_name: list) -> None:
+        """6. a person or an animal the words name, whatever asset plays them; where an asset of
+        that kind is named (``by_name``), rule 1 holds it to that asset."""
+        db = self.db
         by_asset = {k for m in by_name for k in db.kinds_of(m.asset)}
-        for kind, word in db.beings_in(event, exclude=robot).items():
+        for kind, word in db.beings_in(event, exclude=self.robot).items():
             if kind in by_asset:
                 continue
-            if any(kind in db.kinds_of(e.asset) for e in cast):
-                named.append(f"a {kind} ('{word}')")
+            if any(kind in db.kinds_of(e.asset) for e in self.cast):
+                self.named.append(f"a {kind} ('{word}')")
             else:
-                missing.append(f"'{event}' names {'an' if kind[0] in 'aeiou' else 'a'} {kind} ('{word}'), "
-                               f"and no entity of the scenario is one")
-        motions = db.named_motions(event, robot=robot)
-        if motions and not any(set(motions) & set(db.assets[e.asset].behaviors) for e in cast):
+                self.missing.append(f"'{event}' names {'an' if kind[0] in 'aeiou' else 'a'} {kind} ('{word}'), "
+                                    f"and no entity of the scenario is one")
+
+    def motions(self, event: str) -> None:
+        """3. a motion the words name is one some entity can make."""
+        motions = self.db.named_motions(event, robot=self.robot)
+        if motions and not any(set(motions) & set(self.db.assets[e.asset].behaviors) for e in self.cast):
             said = ", ".join(f"'{ph}' ({m})" for m, ph in motions.items())
-            missing.append(f"'{event}' names a motion, {said}, that nobody in the scenario can make")
-            named.extend(f"behavior = {m}" for m in motions)
-        named.extend(f"{e.asset} making {e.behavior}" for e in cast if e.behavior in motions)  # rules decide
-        for e in cast:
-            for prop in db.parameters_of(e.asset):
+            self.missing.append(f"'{event}' names a motion, {said}, that nobody in the scenario can make")
+            self.named.extend(f"behavior = {m}" for m in motions)
+        self.named.extend(f"{e.asset} making {e.behavior}" for e in self.cast if e.behavior in motions)  # rules decide
+
+    def states(self, event: str) -> None:
+        """2. every state the words name for an entity's property is the state it has (or has
+        during the run)."""
+        for e in self.cast:
+            for prop in self.db.parameters_of(e.asset):
                 if prop == "behavior" and e.behavior == IMPORTED:  # its motion is the imported file's
                     continue
-                hits = db.named_states(e.asset, prop, event)
+                hits = self.db.named_states(e.asset, prop, event)
                 if not hits:
                     continue
                 have = e.properties.get(prop) if prop != "behavior" else (e.behavior or e.properties.get(prop))
                 if have in hits:  # one of the states the words name (others may be another actor's)
-                    named.append(f"{e.name}.{prop} = {have}")
+                    self.named.append(f"{e.name}.{prop} = {have}")
                     continue
-                track = trace.actors.get(e.name) if trace is not None else None
+                track = self.trace.actors.get(e.name) if self.trace is not None else None
                 during = set(track.states.get(prop, [])) if track is not None else set()
-                hits = {st: ph for st, ph in hits.items() if not _explained_by_a_behavior(ph, cast)}
+                hits = {st: ph for st, ph in hits.items() if not _explained_by_a_behavior(ph, self.cast)}
                 # 'runs the red light': the red light of the runner, not this one's
                 if len(hits) != 1:
                     continue  # nothing left, or words naming several actors' states: no verdict
                 ((state, phrase),) = hits.items()
-                named.append(f"{e.name}.{prop} = {state}")
+                self.named.append(f"{e.name}.{prop} = {state}")
                 if have is not None and state not in during:
-                    wrong.append(f"'{phrase}' names {prop} = {state}, {e.name} has {prop} = {have}")
-    if missing or wrong:
-        return Fidelity(status="unfaithful", named=named, shown=shown,
-                        reason="; ".join(missing + wrong) + f"; the scenario shows {', '.join(shown)}")
-    if not any(not n.count(".") for n in named):  # no asset named: rules cannot say who plays it
-        # ... unless the words name a state that nothing in the scenario can be in ('a distracted
-        # driver' where no entity has a driver): then no entity plays it, whoever it was meant to be
-        holders = {p for e in scenario.entities if e.asset in db.assets for p in db.parameters_of(e.asset)}
-        absent = [(prop, st, ph) for event in causes for prop, st, ph in db.named_property_states(event)
-                  if prop not in holders and not _explained_by_a_behavior(ph, cast)]
-        if absent:
-            said = ", ".join(f"'{ph}' ({prop} = {st})" for prop, st, ph in absent)
-            return Fidelity(status="unfaithful", named=named + [f"{p} = {st}" for p, st, _ in absent], shown=shown,
-                            reason=f"the cause names {said}, a state no entity of the scenario can have; "
-                                   f"the scenario shows {', '.join(shown)}")
-        return Fidelity(status="undecided", named=named, shown=shown,
-                        reason="the cause names no asset of the database; rules cannot decide")
-    return Fidelity(status="faithful", named=named, shown=shown,
-                    reason=f"shows what the cause names: {', '.join(dict.fromkeys(named))}")
+                    self.wrong.append(f"'{phrase}' names {prop} = {state}, {e.name} has {prop} = {have}")
+
+
+def _no_asset_named(scenario: Scenario, db: AssetDatabase, causes: list[str], cast: list[Entity],
+                    named: list[str], shown: list[str]) -> Fidelity:
+    """Where the words name no asset, rules cannot say who plays it, unless they name a state that
+    nothing in the scenario can be in ('a distracted driver' where no entity has a driver): then
+    no entity plays it, whoever it was meant to be."""
+    holders = {p for e in scenario.entities if e.asset in db.assets for p in db.parameters_of(e.asset)}
+    absent = [(prop, st, ph) for event in causes for prop, st, ph in db.named_property_states(event)
+              if prop not in holders and not _explained_by_a_behavior(ph, cast)]
+    if absent:
+        said = ", ".join(f"'{ph}' ({prop} = {st})" for prop, st, ph in absent)
+        return Fidelity(status="unfaithful", named=named + [f"{p} = {st}" for p, st, _ in absent], shown=shown,
+                        reason=f"the cause names {said}, a state no entity of the scenario can have; "
+                               f"the scenario shows {', '.join(shown)}")
+    return Fidelity(status="undecided", named=named, shown=shown,
+                    reason="the cause names no asset of the database; rules cannot decide")
 
 
 class _Shows(Answer):
@@ -170,7 +212,7 @@ def _may_show(e: Entity) -> bool:
     """Whether an entity may show a cause: not the robot, nor what a domain's ``role`` property
     marks as the robot's task or its stage (manipulation: the furniture it acts on, the item it
     moves, the table; only its ``context`` entities stand for the world)."""
-    return e.kind != "robot" and e.properties.get("role", "context") == "context"
+    return not e.is_robot and e.properties.get("role", "context") == "context"
 
 
 def _thing(e: Entity) -> str:
@@ -191,7 +233,7 @@ def ask_model(scenario: Scenario, llm: LLM, *, robot: str, system: str | None = 
     is not (a cup; a desk lamp that is off for a painting to be shown off) far better. The scene
     shows the cause when one answer is yes. A scene with no such entity (only the robot and its
     task's own objects) does not, by rule: no model is asked."""
-    shown = [_shown(e) for e in scenario.entities if e.kind != "robot"]
+    shown = [_shown(e) for e in scenario.entities if not e.is_robot]
     cause = "; ".join(scenario.causal_graph[:-1] or scenario.causal_graph)
     things = [e for e in scenario.entities if _may_show(e)]
     if not things:

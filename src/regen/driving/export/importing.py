@@ -36,7 +36,8 @@ from regen.core.behavior import Behavior
 from regen.core.scenario import FSM, AbstractState, Entity, PredicateCall, Scenario, Stage, StateRef
 from regen.driving.export.player import Played, delay_of, play
 from regen.driving.export.signals import signals_of, without_signals
-from regen.driving.export.xosc_read import Condition, EntityDecl, Event, ParsedScenario, read_xosc
+from regen.driving.export.xosc_data import Condition, EntityDecl, Event, ParsedScenario
+from regen.driving.export.xosc_read import read_xosc
 from regen.driving.world.imported import imported_entities, with_imported
 from regen.driving.world.maps import GEOMETRIES, ensure_map
 from regen.driving.world.recorded import CLASSES, Trajectory, detect
@@ -211,19 +212,54 @@ def import_xosc(path: str | Path, *, dt: float = DT) -> Scenario:
 
     parsed = read_xosc(path)
     db = database()
+    ego = _the_ego(parsed)
+    map_name, map_words, map_signals = _map(parsed)
+    duration = _duration(parsed)
+    notes = [map_words]
+    if parsed.stop_time is None:
+        notes.append(f"no stop time: it runs {MAX_DURATION:g} s")
+    causes = _cause_events(parsed, ego)
+    specs = {ev.name: _spec(ev, ego, parsed) for ev in causes.values()}
+    played = play(parsed, ego=ego, dt=dt, duration=duration, specs=specs)
+    notes += _start_as_played(parsed, causes, specs, played, ego, dt)
+    rec = _recorded_ego(parsed, played, ego, map_name, dt)
+    start_only = {ev.name for ev in parsed.events if ev.at_start}
+    base = play(parsed, ego=ego, dt=dt, duration=duration, only=start_only)
+    actors: list[ImportedActor] = []
+    texts: list[str] = []
+    for name, decl in parsed.entities.items():
+        if name == ego:
+            continue
+        actor, text = _actor(name, decl, causes.get(name), specs, played, base, ego, db,
+                             taken={a.name for a in actors}, notes=notes)
+        actors.append(actor)
+        texts += [text] if text else []
+    texts = _state_events(parsed, played, map_signals, actors, ego, notes) + texts
+    board = ImportedStoryboard(source=Path(path).name, map=map_name, dt=dt, duration=duration, actors=actors,
+                               notes=notes)
+    return _scenario(Path(path), rec, board, texts)
+
+
+def _the_ego(parsed: ParsedScenario) -> str:
+    """The name of the file's one ego entity; ConfigError when there is none or several."""
     egos = [n for n, e in parsed.entities.items() if _is_ego(e)]
     if len(egos) != 1:
         raise ConfigError(f"{parsed.path}: {'no' if not egos else len(egos)} ego entities; name exactly one "
                           f"entity {' or '.join(EGO_NAMES[:3])} (or give it the property type = ego_vehicle)")
-    ego = egos[0]
-    map_name, map_words, map_signals = _map(parsed)
+    return egos[0]
+
+
+def _duration(parsed: ParsedScenario) -> float:
+    """How long [s] the scenario runs: its stop time, at most MAX_DURATION; ConfigError when too short."""
     duration = min(parsed.stop_time if parsed.stop_time is not None else MAX_DURATION, MAX_DURATION)
     if duration < MIN_DURATION:
         raise ConfigError(f"{parsed.path}: its <StopTrigger> ends the scenario at {parsed.stop_time:g} s; regen import "
                           f"plays at least {MIN_DURATION:g} s: give a later SimulationTimeCondition")
-    notes = [map_words]
-    if parsed.stop_time is None:
-        notes.append(f"no stop time: it runs {MAX_DURATION:g} s")
+    return duration
+
+
+def _cause_events(parsed: ParsedScenario, ego: str) -> dict[str, Event]:
+    """Actor -> its cause event: the one a condition starts that moves it (one per actor)."""
     causes: dict[str, Event] = {}
     for ev in parsed.events:
         if ev.actor == ego or ev.at_start or all(a.kind in ("signal", "state") for a in ev.actions):
@@ -232,8 +268,14 @@ def import_xosc(path: str | Path, *, dt: float = DT) -> Scenario:
             raise ConfigError(f"{parsed.path}: {ev.actor!r} has two events started by conditions "
                               f"({causes[ev.actor].name!r}, {ev.name!r}); regen import reads one cause event per actor")
         causes[ev.actor] = ev
-    specs = {ev.name: _spec(ev, ego, parsed) for ev in causes.values()}
-    played = play(parsed, ego=ego, dt=dt, duration=duration, specs=specs)
+    return causes
+
+
+def _start_as_played(parsed: ParsedScenario, causes: dict[str, Event], specs: dict[str, tuple | None],
+                     played: Played, ego: str, dt: float) -> list[str]:
+    """Give each cause event that no trigger states (``specs`` None) a time trigger at the time
+    it started in the file's own run; returns the notes that say so."""
+    notes = []
     for ev in causes.values():
         if specs[ev.name] is None:
             k = played.started.get(ev.name)
@@ -243,42 +285,43 @@ def import_xosc(path: str | Path, *, dt: float = DT) -> Scenario:
             specs[ev.name] = ("time", round(k * dt, 4), 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
             notes.append(f"{ev.actor}'s event {ev.name!r} starts on {condition_words(ev, ego)}, which is not a "
                          f"condition on the ego alone: it starts at {k * dt:.1f} s, when it started in the file")
-    rec = _recorded_ego(parsed, played, ego, map_name, dt)
-    start_only = {ev.name for ev in parsed.events if ev.at_start}
-    base = play(parsed, ego=ego, dt=dt, duration=duration, only=start_only)
-    actors: list[ImportedActor] = []
-    texts: list[str] = []
-    for name, decl in parsed.entities.items():
-        if name == ego:
-            continue
-        asset = _asset(decl, db)
-        ev = causes.get(name)
-        props = {k[len("regen_"):]: v for k, v in decl.properties.items()
-                 if k.startswith("regen_") and k != "regen_asset" and k[len("regen_"):] in db.properties}
-        actor = ImportedActor(name=_scenario_name(name, {a.name for a in actors}), source=name, asset=asset,
-                              properties=props, before=_rounded(base.poses[name]))
-        if ev is not None:
-            k = played.started.get(ev.name)
-            if k is None:
-                notes.append(f"{name}'s event {ev.name!r} never started in the file's own run")
-            else:
-                after = played.poses[name][k:]
-                trajectory = any(a.kind == "trajectory" for a in ev.actions)
-                actor.after = _rounded(after) if trajectory else _relative(after, after[0])
-                actor.relative = not trajectory
-            actor.trigger = specs[ev.name]
-            actor.event, actor.condition = ev.name, condition_words(ev, ego)
-        moving = max(p[3] for p in actor.before + actor.after) >= MOVING
-        actor.kind = "agent" if moving or decl.kind != "misc" else "object"
-        if ev is not None and actor.after:
-            state, calls = _cause_state(actor, decl.kind)
-            actor.action = _action_words(state)
-            actor.cause = AbstractState(name=state, actor=actor.name, all_of=calls, cause=True)
-            texts.append(f"the {asset.replace('_', ' ')} {actor.action} when {actor.condition}")
-        actors.append(actor)
-    texts = _state_events(parsed, played, map_signals, actors, ego, notes) + texts
-    board = ImportedStoryboard(source=Path(path).name, map=map_name, dt=dt, duration=duration, actors=actors,
-                               notes=notes)
+    return notes
+
+
+def _actor(name: str, decl: EntityDecl, ev: Event | None, specs: dict[str, tuple | None], played: Played,
+           base: Played, ego: str, db, *, taken: set[str], notes: list[str]) -> tuple[ImportedActor, str]:
+    """One entity of the file other than the ego as an imported actor: its motion from the start
+    (``base``), its cause event's motion, trigger and state, and the cause text it adds ('' when
+    none). A cause event that never started in the file's own run is noted in ``notes``."""
+    asset = _asset(decl, db)
+    props = {k[len("regen_"):]: v for k, v in decl.properties.items()
+             if k.startswith("regen_") and k != "regen_asset" and k[len("regen_"):] in db.properties}
+    actor = ImportedActor(name=_scenario_name(name, taken), source=name, asset=asset,
+                          properties=props, before=_rounded(base.poses[name]))
+    if ev is not None:
+        k = played.started.get(ev.name)
+        if k is None:
+            notes.append(f"{name}'s event {ev.name!r} never started in the file's own run")
+        else:
+            after = played.poses[name][k:]
+            trajectory = any(a.kind == "trajectory" for a in ev.actions)
+            actor.after = _rounded(after) if trajectory else _relative(after, after[0])
+            actor.relative = not trajectory
+        actor.trigger = specs[ev.name]
+        actor.event, actor.condition = ev.name, condition_words(ev, ego)
+    moving = max(p[3] for p in actor.before + actor.after) >= MOVING
+    actor.kind = "agent" if moving or decl.kind != "misc" else "object"
+    if ev is None or not actor.after:
+        return actor, ""
+    state, calls = _cause_state(actor, decl.kind)
+    actor.action = _action_words(state)
+    actor.cause = AbstractState(name=state, actor=actor.name, all_of=calls, cause=True)
+    return actor, f"the {asset.replace('_', ' ')} {actor.action} when {actor.condition}"
+
+
+def _scenario(path: Path, rec: RecordedEgo, board: ImportedStoryboard, texts: list[str]) -> Scenario:
+    """The imported scenario: the ego replays its recorded path, the actors the storyboard; the
+    cause is the storyboard's cause texts, the behavior the one detected in the ego's path."""
     behavior_text = CLASSES[rec.detected][1]
     behavior = Behavior(text=behavior_text, domain="driving",
                         params=DrivingParams(recorded=rec, imported=board).model_dump(exclude_none=True))
@@ -286,9 +329,9 @@ def import_xosc(path: str | Path, *, dt: float = DT) -> Scenario:
     entities = [Entity(name="ego", asset="ego", kind="robot", behavior=t.id,
                        behavior_params={"text": behavior_text}), *imported_entities(board)]
     fsm = with_imported(_ego_fsm(t), board, {n for n, _ in t.ego_states()[1]})
-    cause = " and ".join(texts) if texts else f"the storyboard of {Path(path).name}"
-    world = DrivingWorld(map=map_name, ego_template=t.id, duration=duration, dt=dt, grounder="imported")
-    return Scenario(id=f"import-{re.sub(r'[^A-Za-z0-9_-]', '_', Path(path).stem)[:40]}", domain="driving",
+    cause = " and ".join(texts) if texts else f"the storyboard of {path.name}"
+    world = DrivingWorld(map=board.map, ego_template=t.id, duration=board.duration, dt=board.dt, grounder="imported")
+    return Scenario(id=f"import-{re.sub(r'[^A-Za-z0-9_-]', '_', path.stem)[:40]}", domain="driving",
                     behavior=behavior, causal_graph=[cause, behavior_text],
                     narrative=f"{cause[0].upper()}{cause[1:]}, so {behavior_text}.", entities=entities, fsm=fsm,
                     world=world.as_world(), fsm_source="rules")

@@ -195,7 +195,7 @@ def _standing(scenario: Scenario) -> set[str]:
 
     out = set()
     for e in scenario.entities:
-        spec = find(e.behavior) if e.kind != "robot" and e.behavior else None
+        spec = find(e.behavior) if not e.is_robot and e.behavior else None
         if spec is not None and not spec.xosc_trajectory:
             out.add(e.name)
     return out
@@ -290,13 +290,7 @@ def export_openscenario(scenario: Scenario, trace: Trace, out_dir: Path, *,
     if not sample_dt > 0:
         raise ConfigError(f"sample_dt must be positive, got {sample_dt!r}")
     xosc = _xosc()
-    try:
-        from regen.driving.assets import database as driving_database
-
-        db = driving_database()
-    except RegenError as exc:
-        log.warning("driving asset database unavailable (%s); exporting every actor as an object", exc)
-        db = None
+    db = _database()
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     files: dict[str, Path] = {}
@@ -304,79 +298,129 @@ def export_openscenario(scenario: Scenario, trace: Trace, out_dir: Path, *,
     names = _unique_names(list(trace.actors))
     plans = _plans(scenario)
     triggers = {n: p.trigger.spec() for n, p in plans.items() if p.trigger is not None and p.kind != "sensor"}
-    lights = _lights(plans, trace, names)
-    signal_ids: dict[str, str] = {}
+    road, signal_ids = _road_network(xosc, scenario, trace, out_dir, _lights(plans, trace, names), files)
+    actors = _Actors(xosc, scenario, trace, db, names, sample_dt, include_ego)
+    for orig, changes, spec in _state_changes(xosc, plans, trace, names, signal_ids, actors.init, db):
+        actors.story(names[orig]).append(state_group(xosc, names[orig], changes, spec, actors.ego))
+    actors.add_all(triggers)
+    board = _storyboard(xosc, actors, float(actors.times[-1] - actors.times[0]))
+    description = _safe_text(f"ReGen scenario {scenario.id}: {scenario.narrative}")
+    doc = xosc.Scenario(description, "regen", xosc.ParameterDeclarations(), actors.entities, board, road,
+                        xosc.Catalog(), osc_minor_version=OSC_MINOR)
+    text = _to_xml(doc)
+    files["xosc"] = atomic_write_bytes(out_dir / "scenario.xosc", text)
+    log.info("exported %s: %d entities, %d trajectories", files["xosc"], len(names), actors.moving)
+    return {"xosc": files["xosc"], **({"xodr": files["xodr"]} if "xodr" in files else {})}
+
+
+def _database():
+    """The driving asset database, or None (every actor is then exported as an object)."""
+    try:
+        from regen.driving.assets import database as driving_database
+
+        return driving_database()
+    except RegenError as exc:
+        log.warning("driving asset database unavailable (%s); exporting every actor as an object", exc)
+        return None
+
+
+def _road_network(xosc, scenario: Scenario, trace: Trace, out_dir: Path, lights: list[Light],
+                  files: dict[str, Path]) -> tuple[object, dict[str, str]]:
+    """(the RoadNetwork, light name -> its signal's id): the scenario's map copied into ``out_dir``
+    (``files["xodr"]``), with a signal per scheduled light; an empty network without a map."""
     xodr = _map_file(scenario, trace)
-    if xodr is not None:
-        files["xodr"] = out_dir / f"{safe_name(xodr.stem)}.xodr"
-        if lights:  # the map's copy holds a signal per light, for the storyboard to switch
-            text, signal_ids = with_signals(xodr.read_text(encoding="utf-8"), lights)
-            atomic_write_bytes(files["xodr"], text.encode("utf-8"))
-        elif files["xodr"].resolve() != xodr.resolve():
-            shutil.copyfile(xodr, files["xodr"])
-        road = xosc.RoadNetwork(roadfile=files["xodr"].name)
-    else:
+    if xodr is None:
         log.warning("scenario %s: no OpenDRIVE map known; the .xosc has an empty road network",
                     scenario.id)
-        road = xosc.RoadNetwork()
+        return xosc.RoadNetwork(), {}
+    signal_ids: dict[str, str] = {}
+    files["xodr"] = out_dir / f"{safe_name(xodr.stem)}.xodr"
+    if lights:  # the map's copy holds a signal per light, for the storyboard to switch
+        text, signal_ids = with_signals(xodr.read_text(encoding="utf-8"), lights)
+        atomic_write_bytes(files["xodr"], text.encode("utf-8"))
+    elif files["xodr"].resolve() != xodr.resolve():
+        shutil.copyfile(xodr, files["xodr"])
+    return xosc.RoadNetwork(roadfile=files["xodr"].name), signal_ids
 
-    props = {e.name: e.properties for e in scenario.entities}
-    standing = _standing(scenario)
-    times = np.asarray(trace.times, float)
-    entities = xosc.Entities()
-    init = xosc.Init()
-    stories: dict[str, list] = {}  # entity -> its maneuver groups: one Story per actor
-    moving = 0
-    for orig, changes, spec in _state_changes(xosc, plans, trace, names, signal_ids, init, db):
-        stories.setdefault(names[orig], []).append(state_group(xosc, names[orig], changes, spec, names.get("ego", "ego")))
-    for orig, track in trace.actors.items():
-        kind = _kind(track.asset, db)
-        if kind is None or not track.x:
-            continue
-        name = names[orig]
-        entities.add_scenario_object(name, _entity(xosc, name, track, kind, db, props.get(orig, {})))
-        heading = _headings(track)
-        init.add_init_action(name, xosc.TeleportAction(_position(xosc, track, heading, 0)))
-        x, y = np.asarray(track.x, float), np.asarray(track.y, float)
-        if orig not in standing and float(np.hypot(np.diff(x), np.diff(y)).sum()) >= MOVING:
-            if orig == "ego" and not include_ego:
+
+class _Actors:
+    """The actors of the trace as the file's entities, their initial placement (``init``) and the
+    maneuver groups of each one's Story (``stories``, by file name)."""
+
+    def __init__(self, xosc, scenario: Scenario, trace: Trace, db, names: dict[str, str], sample_dt: float,
+                 include_ego: bool) -> None:
+        self.xosc, self.trace, self.db, self.names = xosc, trace, db, names
+        self.sample_dt, self.include_ego = sample_dt, include_ego
+        self.props = {e.name: e.properties for e in scenario.entities}
+        self.standing = _standing(scenario)
+        self.times = np.asarray(trace.times, float)
+        self.ego = names.get("ego", "ego")  # the ego's name in the file
+        self.entities = xosc.Entities()
+        self.init = xosc.Init()
+        self.stories: dict[str, list] = {}  # entity -> its maneuver groups: one Story per actor
+        self.moving = 0  # actors that follow a trajectory
+
+    def story(self, name: str) -> list:
+        return self.stories.setdefault(name, [])
+
+    def add_all(self, triggers: dict[str, Spec]) -> None:
+        """Every placed actor of the trace: its entity, its start, and its path if it moves (on
+        its trigger in ``triggers``, by actor, where it has one)."""
+        for orig, track in self.trace.actors.items():
+            kind = _kind(track.asset, self.db)
+            if kind is None or not track.x:
                 continue
-            if track.speed and kind != "misc":
-                init.add_init_action(name, xosc.AbsoluteSpeedAction(float(track.speed[0]), xosc.TransitionDynamics(
-                    xosc.DynamicsShapes.step, xosc.DynamicsDimension.time, 0)))
-            spec = triggers.get(orig)
-            k_fire = fire_index(spec, trace, orig) if spec is not None else None
-            if spec is not None and k_fire is not None:
-                idx = sorted(set(int(i) for i in _samples(times, sample_dt)) | {k_fire})
-                where = idx.index(k_fire)
-                before = float(np.hypot(np.diff(x[: k_fire + 1]), np.diff(y[: k_fire + 1])).sum())
-                stories.setdefault(name, []).append(triggered_group(
-                    xosc, name, [_position(xosc, track, heading, i) for i in idx], times[idx], where,
-                    as_recorded(spec, trace, k_fire),
-                    names.get("ego", "ego"), moves_before=before >= MOVING))
-            else:
-                stories.setdefault(name, []).append(_trajectory_event(xosc, name, track, heading, times, sample_dt))
-            moving += 1
-    duration = float(times[-1] - times[0])
+            self.add(orig, track, kind, triggers.get(orig))
+
+    def add(self, orig: str, track: ActorTrack, kind: str, spec: Spec | None) -> None:
+        """One actor: its entity, its teleport to its first pose, and, if it moves (and its
+        primitive is replayed, and it is not a left-out ego), its start speed and its path."""
+        xosc, name = self.xosc, self.names[orig]
+        self.entities.add_scenario_object(name, _entity(xosc, name, track, kind, self.db, self.props.get(orig, {})))
+        heading = _headings(track)
+        self.init.add_init_action(name, xosc.TeleportAction(_position(xosc, track, heading, 0)))
+        x, y = np.asarray(track.x, float), np.asarray(track.y, float)
+        if orig in self.standing or float(np.hypot(np.diff(x), np.diff(y)).sum()) < MOVING:
+            return
+        if orig == "ego" and not self.include_ego:
+            return
+        if track.speed and kind != "misc":
+            self.init.add_init_action(name, xosc.AbsoluteSpeedAction(float(track.speed[0]), xosc.TransitionDynamics(
+                xosc.DynamicsShapes.step, xosc.DynamicsDimension.time, 0)))
+        self.story(name).append(self._path(orig, name, track, heading, spec))
+        self.moving += 1
+
+    def _path(self, orig: str, name: str, track: ActorTrack, heading: np.ndarray, spec: Spec | None):
+        """The maneuver group of a moving actor's path: started by its trigger where it fired in
+        the trace, else on simulation time."""
+        xosc, trace, times = self.xosc, self.trace, self.times
+        k_fire = fire_index(spec, trace, orig) if spec is not None else None
+        if spec is None or k_fire is None:
+            return _trajectory_event(xosc, name, track, heading, times, self.sample_dt)
+        x, y = np.asarray(track.x, float), np.asarray(track.y, float)
+        idx = sorted(set(int(i) for i in _samples(times, self.sample_dt)) | {k_fire})
+        where = idx.index(k_fire)
+        before = float(np.hypot(np.diff(x[: k_fire + 1]), np.diff(y[: k_fire + 1])).sum())
+        return triggered_group(xosc, name, [_position(xosc, track, heading, i) for i in idx], times[idx], where,
+                               as_recorded(spec, trace, k_fire), self.ego, moves_before=before >= MOVING)
+
+
+def _storyboard(xosc, actors: _Actors, duration: float):
+    """The StoryBoard: the actors' initial placement, a Story per actor (the ego's first), and a
+    stop at the end of the recording (``duration`` [s])."""
     stop = xosc.ValueTrigger("end_of_recording", 0, xosc.ConditionEdge.rising,
                              xosc.SimulationTimeCondition(duration, xosc.Rule.greaterThan),
                              triggeringpoint="stop")
-    board = xosc.StoryBoard(init, stop)
-    for name in sorted(stories, key=lambda n: n != names.get("ego", "ego")):  # the ego's own story first
+    board = xosc.StoryBoard(actors.init, stop)
+    for name in sorted(actors.stories, key=lambda n: n != actors.ego):  # the ego's own story first
         act = xosc.Act(f"{name}_act", xosc.ValueTrigger(f"{name}_act_start", 0, xosc.ConditionEdge.none,
                                                          xosc.SimulationTimeCondition(0, xosc.Rule.greaterOrEqual)))
-        for group in stories[name]:
+        for group in actors.stories[name]:
             act.add_maneuver_group(group)
         story = xosc.Story(f"{name}_story")
         story.add_act(act)
         board.add_story(story)
-    description = _safe_text(f"ReGen scenario {scenario.id}: {scenario.narrative}")
-    doc = xosc.Scenario(description, "regen", xosc.ParameterDeclarations(), entities, board, road,
-                        xosc.Catalog(), osc_minor_version=OSC_MINOR)
-    text = _to_xml(doc)
-    files["xosc"] = atomic_write_bytes(out_dir / "scenario.xosc", text)
-    log.info("exported %s: %d entities, %d trajectories", files["xosc"], len(names), moving)
-    return {"xosc": files["xosc"], **({"xodr": files["xodr"]} if "xodr" in files else {})}
+    return board
 
 
 def _to_xml(doc) -> bytes:

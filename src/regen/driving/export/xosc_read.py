@@ -38,8 +38,8 @@ reader reads of them (:mod:`.xosc_record`), and whatever it did not read is what
 
 Plain ElementTree over a file the user gave (through :func:`regen.promises.files.parse_xml`: a
 size cap, no entity declarations, bounded nesting): no network, no code run.
-Imports: the errors, the promises and :mod:`.xosc_record` (and the custom commands of
-:mod:`.appearance`).
+Imports: the errors, the promises, :mod:`.xosc_data` (what it reads into) and :mod:`.xosc_record`
+(and the custom commands of :mod:`.appearance`).
 """
 
 from __future__ import annotations
@@ -49,6 +49,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from regen.driving.export.xosc_data import Action, Condition, EntityDecl, Event, ParsedScenario
 from regen.driving.export.xosc_record import (
     WITHOUT_EFFECT,
     bad,
@@ -65,78 +66,6 @@ from regen.promises.files import MAX_BYTES, label, parse_xml, shown
 
 _GIVE = "give an OpenSCENARIO 1.x .xosc file"
 _LISTED = 20  # problems named in the message; the rest are counted
-
-
-@dataclass(frozen=True)
-class Condition:
-    """One start condition. ``kind``: 'time', 'distance', 'ttc', 'speed' or 'offset'."""
-
-    kind: str
-    value: float
-    rule: str  # 'lessThan', 'lessOrEqual', 'greaterThan', 'greaterOrEqual', 'equalTo'
-    entity: str = ""  # the triggering entity (entity conditions)
-    ref: str = ""  # the reference entity (offset)
-    point: tuple[float, float] | None = None  # the position (distance, ttc)
-    delay: float = 0.0  # [s] after the condition holds
-
-
-@dataclass(frozen=True)
-class Action:
-    """One action. ``kind``: 'trajectory', 'speed', 'lane_change' (motion), 'signal' (a traffic
-    signal of the map switches to ``state``) or 'state' (the actor's property ``key`` becomes
-    ``state``: a door, a siren, hazard lights)."""
-
-    kind: str
-    # trajectory: (t [s], x [m], y [m], heading [rad]) vertices; relative: times from the event's start
-    vertices: tuple[tuple[float, float, float, float], ...] = ()
-    relative: bool = False
-    target: float = 0.0  # speed [m/s], or lanes to the left (lane_change; negative: right)
-    shape: str = "step"  # step, linear, cubic, sinusoidal
-    dimension: str = "time"  # time [s], distance [m], rate [m/s^2]
-    amount: float = 0.0  # the dynamics' value in its dimension
-    signal: str = ""  # the signal's id in the map (signal)
-    state: str = ""  # its new state (signal, state)
-    key: str = ""  # the property it sets (state): door, siren, hazard_lights
-    entity: str = ""  # whose property (state; empty: the event's actor)
-
-
-@dataclass
-class Event:
-    actor: str
-    name: str
-    actions: list[Action]
-    groups: list[list[Condition]]  # OR of ANDs; empty: starts with its act
-
-    @property
-    def at_start(self) -> bool:
-        """Whether it starts with the scenario (no condition, or time >= 0)."""
-        return not self.groups or any(
-            all(c.kind == "time" and c.value <= 0.0 and c.rule in ("greaterOrEqual", "greaterThan") for c in g)
-            for g in self.groups)
-
-
-@dataclass
-class EntityDecl:
-    name: str
-    kind: str  # 'vehicle', 'pedestrian', 'misc'
-    category: str  # vehicleCategory, pedestrianCategory or miscObjectCategory
-    role: str = ""  # Vehicle@role (OpenSCENARIO 1.2), e.g. 'ambulance', 'police'
-    size: tuple[float, float, float] = (4.5, 1.8, 1.5)  # length, width, height [m]
-    properties: dict[str, str] = field(default_factory=dict)
-
-
-@dataclass
-class ParsedScenario:
-    path: Path
-    description: str
-    map_file: Path | None
-    entities: dict[str, EntityDecl]
-    start: dict[str, tuple[float, float, float]]  # name -> (x, y, heading)
-    speed: dict[str, float]  # name -> start speed [m/s]
-    events: list[Event]
-    stop_time: float | None
-    signals: dict[str, str] = field(default_factory=dict)  # signal id -> its state at the start
-    states: dict[str, dict[str, str]] = field(default_factory=dict)  # entity -> property -> state at the start
 
 
 _SHAPES = ("step", "linear", "cubic", "sinusoidal")
@@ -385,6 +314,23 @@ def read_xosc(path: str | Path) -> ParsedScenario:
     logic = root.find("RoadNetwork/LogicFile")
     filepath = logic.get("filepath", "") if logic is not None else ""
     map_file = (path.parent / filepath).resolve() if filepath and not filepath.startswith("$") else None
+    entities = _entities(root)
+    init = _Init.read(board)
+    events = _events(board)
+    stop = _stop_time(board)
+    problems = list(dict.fromkeys([*rec.bad, *unread(root, rec)]))
+    if problems:
+        more = f"; and {len(problems) - _LISTED} more" if len(problems) > _LISTED else ""
+        raise ConfigError(f"{name}: regen import does not read " + "; ".join(problems[:_LISTED]) + more
+                          + ". Remove these or write them with what docs/interop.md lists")
+    _check_declared(name, entities, init.start, events)
+    return ParsedScenario(path=path, description=description, map_file=map_file,
+                          entities=entities, start=init.start, speed=init.speed, events=events, stop_time=stop,
+                          signals=init.signals, states=init.states)
+
+
+def _entities(root: ET.Element) -> dict[str, EntityDecl]:
+    """The declared entities by name (an ``EntitySelection`` is named as not read)."""
     entities: dict[str, EntityDecl] = {}
     for obj in root.findall("Entities/ScenarioObject"):
         e = _entity(obj)
@@ -392,30 +338,48 @@ def read_xosc(path: str | Path) -> ParsedScenario:
             entities[e.name] = e
     for other in root.findall("Entities/EntitySelection"):
         named(other, "Entities")
-    start: dict[str, tuple[float, float, float]] = {}
-    speed: dict[str, float] = {}
-    states: dict[str, dict[str, str]] = {}
-    for priv in board.findall("Init/Actions/Private"):
-        entity = priv.get("entityRef", "")
-        where = f"Init of {shown(entity)}"
-        for pa in priv.findall("PrivateAction"):
-            if (tp := pa.find("TeleportAction")) is not None:
-                start[entity] = _world(tp, where)
-            elif (sa := pa.find("LongitudinalAction/SpeedAction")) is not None:
-                if (got := _speed_action(sa, where)) is not None:
-                    speed[entity] = got.target
-            elif (ap := pa.find("AppearanceAction")) is not None:
-                if (got := _appearance(ap, where)) is not None:
-                    states.setdefault(entity, {})[got.key] = got.state
-            else:
-                named(pa[0] if len(pa) else pa, where)
-    for ud in board.findall("Init/Actions/UserDefinedAction"):
-        if (cmd := _command(ud, "Init")) is not None:
-            states.setdefault(cmd.entity, {})[cmd.key] = cmd.state
-    signals: dict[str, str] = {}
-    for ga in board.findall("Init/Actions/GlobalAction"):
-        if (sig := _signal(ga, "Init")) is not None:
-            signals[sig.signal] = sig.state
+    return entities
+
+
+@dataclass
+class _Init:
+    """What the storyboard's ``Init`` sets (the fields of :class:`ParsedScenario` of the same names)."""
+
+    start: dict[str, tuple[float, float, float]] = field(default_factory=dict)
+    speed: dict[str, float] = field(default_factory=dict)
+    states: dict[str, dict[str, str]] = field(default_factory=dict)
+    signals: dict[str, str] = field(default_factory=dict)
+
+    @classmethod
+    def read(cls, board: ET.Element) -> _Init:
+        """Each entity's start pose, speed and states, and the signals' states, from ``Init``."""
+        init = cls()
+        for priv in board.findall("Init/Actions/Private"):
+            entity = priv.get("entityRef", "")
+            where = f"Init of {shown(entity)}"
+            for pa in priv.findall("PrivateAction"):
+                if (tp := pa.find("TeleportAction")) is not None:
+                    init.start[entity] = _world(tp, where)
+                elif (sa := pa.find("LongitudinalAction/SpeedAction")) is not None:
+                    if (got := _speed_action(sa, where)) is not None:
+                        init.speed[entity] = got.target
+                elif (ap := pa.find("AppearanceAction")) is not None:
+                    if (got := _appearance(ap, where)) is not None:
+                        init.states.setdefault(entity, {})[got.key] = got.state
+                else:
+                    named(pa[0] if len(pa) else pa, where)
+        for ud in board.findall("Init/Actions/UserDefinedAction"):
+            if (cmd := _command(ud, "Init")) is not None:
+                init.states.setdefault(cmd.entity, {})[cmd.key] = cmd.state
+        for ga in board.findall("Init/Actions/GlobalAction"):
+            if (sig := _signal(ga, "Init")) is not None:
+                init.signals[sig.signal] = sig.state
+        return init
+
+
+def _events(board: ET.Element) -> list[Event]:
+    """The events of every Story/Act/ManeuverGroup/Maneuver, in file order (a maneuver group
+    with other than one actor is named, and its events left out)."""
     events: list[Event] = []
     for story in board.findall("Story"):
         for act in story.findall("Act"):
@@ -432,6 +396,11 @@ def read_xosc(path: str | Path) -> ParsedScenario:
                     groups = _groups(ev.find("StartTrigger"), where)
                     if len(actors) == 1:
                         events.append(Event(actor=actors[0], name=ev.get("name", ""), actions=actions, groups=groups))
+    return events
+
+
+def _stop_time(board: ET.Element) -> float | None:
+    """When the ``StopTrigger`` ends the scenario [s] (the earliest of its time conditions), or None."""
     stop = None
     for g in _groups(board.find("StopTrigger"), "StopTrigger"):
         for c in g:
@@ -440,11 +409,12 @@ def read_xosc(path: str | Path) -> ParsedScenario:
             else:
                 bad(board, f"a {c.kind} condition in the <StopTrigger> (regen import reads a "
                             "<SimulationTimeCondition> there)")
-    problems = list(dict.fromkeys([*rec.bad, *unread(root, rec)]))
-    if problems:
-        more = f"; and {len(problems) - _LISTED} more" if len(problems) > _LISTED else ""
-        raise ConfigError(f"{name}: regen import does not read " + "; ".join(problems[:_LISTED]) + more
-                          + ". Remove these or write them with what docs/interop.md lists")
+    return stop
+
+
+def _check_declared(name: str, entities: dict[str, EntityDecl], start: dict[str, tuple[float, float, float]],
+                    events: list[Event]) -> None:
+    """ConfigError for an entity the storyboard uses but does not declare, or one without a start."""
     for used in list(start) + [e.actor for e in events]:
         if used not in entities:
             raise ConfigError(f"{name}: {shown(used)} is used in the storyboard but not declared in <Entities>")
@@ -452,9 +422,6 @@ def read_xosc(path: str | Path) -> ParsedScenario:
     if missing:
         raise ConfigError(f"{name}: no start position for {', '.join(map(shown, missing))}; give each entity a "
                           "TeleportAction to a WorldPosition in <Init>")
-    return ParsedScenario(path=path, description=description, map_file=map_file,
-                          entities=entities, start=start, speed=speed, events=events, stop_time=stop,
-                          signals=signals, states=states)
 
 
 def _action(a: ET.Element, where: str, actor: str) -> Action | None:
@@ -469,4 +436,4 @@ def _action(a: ET.Element, where: str, actor: str) -> Action | None:
     return None
 
 
-__all__ = ["Action", "Condition", "EntityDecl", "Event", "ParsedScenario", "read_xosc"]
+__all__ = ["read_xosc"]

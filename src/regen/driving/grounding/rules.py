@@ -347,7 +347,7 @@ def _size(db: AssetDatabase, asset: str) -> tuple[float, float, float]:
     return (float(s[0]), float(s[1]), float(s[2]))
 
 
-def _actor(r: RoleChoice, db: AssetDatabase) -> ActorSpec:
+def actor_spec(r: RoleChoice, db: AssetDatabase) -> ActorSpec:
     return ActorSpec(name=r.name, asset=r.asset, primitive=r.primitive, location=r.location,
                      speed_class=r.speed_class, properties=dict(r.properties), size=_size(db, r.asset))
 
@@ -375,16 +375,16 @@ def build_scenario(path: CausePath, roles: list[RoleChoice], *, narrative: str, 
     if problems:
         raise GroundingError("; ".join(problems))
     template = choose_map(template, roles)
-    sol = solve(template, [_actor(r, db) for r in roles], seed=seed)
+    sol = solve(template, [actor_spec(r, db) for r in roles], seed=seed)
     if sol.report.status == "infeasible" and template.map != "four_way" and "four_way" in template.junction_maps:
         # the T-junction has no north arm: a car that must come through the junction needs one
         wider = on_junction_map(template, "four_way")
-        again = solve(wider, [_actor(r, db) for r in roles], seed=seed)
+        again = solve(wider, [actor_spec(r, db) for r in roles], seed=seed)
         if again.report.status != "infeasible":
             template, sol = wider, again
     refit: list[str] = []
     if sol.report.status == "infeasible":
-        roles, sol, refit = refit_speeds(template, roles, sol, lambda r: _actor(r, db), seed=seed)
+        roles, sol, refit = refit_speeds(template, roles, sol, lambda r: actor_spec(r, db), seed=seed)
     entities = [Entity(name="ego", asset="ego", kind="robot", behavior=template.id,
                        behavior_params={"text": path.behavior.text})]
     for r in roles:
@@ -480,7 +480,7 @@ def plans_for(scenario: Scenario, db: AssetDatabase | None = None) -> tuple[EgoT
             plans.append(imported_plan(imported[r.name], r, db))
             continue
         params = dict(scenario.parameters.get(r.name, {}))
-        placed = Placed(actor=_actor(r, db), kind=db.assets[r.asset].kind, params=params, ego=t)
+        placed = Placed(actor=actor_spec(r, db), kind=db.assets[r.asset].kind, params=params, ego=t)
         plan = for_actor(r.asset, r.primitive).plan(placed)
         plan.states = state_schedules(r, params, t)
         plans.append(plan)

@@ -34,7 +34,7 @@ class RawRun:
     timings: dict[str, float] = field(default_factory=dict)  # 'compile', 'simulate' [s]
 
 
-def _scenic():
+def scenic_modules():
     try:
         import scenic
         from scenic.simulators.newtonian import simulator as newtonian
@@ -66,7 +66,7 @@ def raw_run(log: list[Snapshot], names: list[str], dt: float, timings: dict[str,
 @functools.cache
 def _recording_simulator_class():
     """A NewtonianSimulator whose simulations record every object after every step."""
-    _, newtonian = _scenic()
+    _, newtonian = scenic_modules()
 
     class RecordingSimulation(newtonian.NewtonianSimulation):
         def setup(self):
@@ -90,7 +90,7 @@ def _recording_simulator_class():
 
 def compile_program(text: str, *, filename: str = "<regen>"):
     """Compile Scenic source into a scenario; Scenic errors become :class:`SimulationError`."""
-    scenic, _ = _scenic()
+    scenic, _ = scenic_modules()
     try:
         return scenic.scenarioFromString(text, filename=filename, mode2D=True)
     except Exception as exc:  # Scenic raises many error types; all mean "this program is bad"

@@ -215,9 +215,9 @@ class _Driver:
 
 @functools.cache
 def _simulator_class():
-    from regen.driving.simulation.run import _scenic
+    from regen.driving.simulation.run import scenic_modules
 
-    _, newtonian = _scenic()
+    _, newtonian = scenic_modules()
 
     class PolicySimulation(newtonian.NewtonianSimulation):
         def __init__(self, scene, network, driver, **kwargs):

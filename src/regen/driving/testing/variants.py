@@ -52,10 +52,10 @@ class _Feasible:
 
 def _actors(scenario: Scenario) -> tuple[Any, list[Any]]:
     from regen.driving.assets import database
-    from regen.driving.grounding.rules import _actor, roles_of, template_of
+    from regen.driving.grounding.rules import actor_spec, roles_of, template_of
 
     db = database()
-    return template_of(scenario), [_actor(r, db) for r in roles_of(scenario)]
+    return template_of(scenario), [actor_spec(r, db) for r in roles_of(scenario)]
 
 
 def _model(fs: _Feasible) -> tuple[Any, dict[Key, Any]]:

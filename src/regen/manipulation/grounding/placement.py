@@ -61,6 +61,10 @@ class Ref:
     wall: bool = False
     opening: tuple[float, float] | None = None  # y-range of a door/window opening [m]
 
+    @property
+    def is_robot(self) -> bool:
+        return self.kind == "robot"
+
 
 @dataclass
 class Request:
@@ -183,9 +187,9 @@ def structural_problems(req: Request, refs: dict[str, Ref]) -> list[str]:
                     f"({ref.under:.2f} m free)"]
     if req.relation == "outside" and not ref.wall:
         return [f"{what}: the {ref.name} has no wall with a door or window to be outside of"]
-    if req.relation == "out_of_reach" and ref.kind != "robot":
+    if req.relation == "out_of_reach" and not ref.is_robot:
         return [f"{what}: 'out of reach' is measured from the robot; use reference 'robot'"]
-    if ref.kind == "robot" and req.relation in ("on", "in", "under", "in_front_of", "behind", "outside"):
+    if ref.is_robot and req.relation in ("on", "in", "under", "in_front_of", "behind", "outside"):
         return [f"{what}: the robot cannot be a reference for {req.relation!r}; use near, "
                 "left_of, right_of or out_of_reach"]
     return []

@@ -74,7 +74,7 @@ def _pose_at(scene: Scene, trace: Trace, i: int, offsets: dict[str, np.ndarray])
         if name not in scene.bodies:
             continue
         b = scene.bodies[name]
-        if b.kind == "robot":
+        if b.is_robot:
             for k, j in enumerate((*ARM_JOINTS, *FINGER_JOINTS)):
                 seq = track.states.get(f"q{k}")
                 if seq:

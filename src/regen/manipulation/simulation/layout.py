@@ -60,6 +60,10 @@ class Body:
     origin: Vec3 = (0.0, 0.0, 0.0)  # where the furniture frame sits [m]
     size: Vec3 = (0.0, 0.0, 0.0)  # extents [m]
     cavity_closed_link_pos: Vec3 | None = None  # where the cavity link was when the cavity was measured
+
+    @property
+    def is_robot(self) -> bool:
+        return self.kind == "robot"
     power: str | None = None  # a context device's power state, as drawn
 
 

@@ -57,7 +57,7 @@ class Recorder:
         s = self.scene
         self.times.append(round(self.steps * DT, 5))
         for name, b in s.bodies.items():
-            if b.kind == "robot":
+            if b.is_robot:
                 self._put(name, "x", b.origin[0])
                 self._put(name, "y", b.origin[1])
                 self._put(name, "z", b.origin[2])
@@ -108,7 +108,7 @@ class Recorder:
             if cols is None:
                 continue
             b = self.scene.bodies[e.name]
-            if b.kind == "robot":
+            if b.is_robot:
                 size = b.size
             elif b.kind == "furniture":
                 size = self.scene.aabb(e.name, -1).size

@@ -184,7 +184,7 @@ class Session:
                            gripper_closed=self.closed, holding=self.ctl.holding)
         objects = []
         for name, b in s.bodies.items():
-            if b.kind == "robot":
+            if b.is_robot:
                 continue
             box = s.aabb(name)
             _, orn = p.getBasePositionAndOrientation(b.id, physicsClientId=c)

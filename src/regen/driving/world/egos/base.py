@@ -15,7 +15,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
-from typing import ClassVar
+from typing import ClassVar, TypeVar
 
 from regen.core.scenario import AbstractState, PredicateCall
 from regen.driving.world.maps import ARM_LENGTH, JUNCTION_RADIUS, geometry
@@ -181,6 +181,23 @@ def stopping_states(*, in_junction: bool = False) -> tuple[State, list[State]]:
 
 NOT_ON_STRAIGHT = MappingProxyType({"turning": "", "changing_lane": "", "accelerating": ""})
 
+T = TypeVar("T", bound=EgoTemplate)
+
+
+def speed_change_on_straight(cls: type[T], template_id: str, description: str, *, speed: float,
+                             to_speed: float, brake: float, stops: bool, after_event: float,
+                             t_event: float = 6.0, duration: float = 16.0) -> T:
+    """A template of the straight road (also run on the four-way map): the ego drives in the
+    inner lane from 150 m before the origin at ``speed`` [m/s] and at ``t_event`` [s] changes to
+    ``to_speed`` [m/s] with ``brake`` (0..1); it ends ``after_event`` [m] past where it was at
+    the event."""
+    fs = straight_frame()
+    y0 = fs.lane_d(0)
+    s_event = -150 + speed * t_event
+    return cls(template_id, description, "straight", tuple(line((-150, y0), (190, y0))), speed,
+               ((0.0, speed, 0.0), (t_event, to_speed, brake)), t_event, duration, fs,
+               s_event, speed, 0, stops, s_event + after_event, junction_maps=("four_way",))
+
 __all__ = ["EGO_SIZE", "JUNCTION_CX", "MAX_ACCEL", "MAX_BRAKE", "NOT_ON_STRAIGHT", "STOPPING", "E",
-           "EgoTemplate", "Frame", "arc", "junction_frame", "line", "stop_distance", "stopping_states",
-           "straight_frame"]
+           "EgoTemplate", "Frame", "arc", "junction_frame", "line", "speed_change_on_straight", "stop_distance",
+           "stopping_states", "straight_frame"]

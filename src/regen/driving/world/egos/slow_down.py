@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from types import MappingProxyType
 
-from regen.driving.world.egos.base import NOT_ON_STRAIGHT, E, EgoTemplate, line, straight_frame
+from regen.driving.world.egos.base import NOT_ON_STRAIGHT, E, EgoTemplate, speed_change_on_straight
 from regen.driving.world.states import State, pred
 
 
@@ -23,15 +23,7 @@ class SlowDown(EgoTemplate):
             ("driving_slowly", [pred("moving", E, min_speed=1.0), pred("slower_than", E, max_speed=6.0)])]
 
 
-def _build() -> SlowDown:
-    fs = straight_frame()
-    y0 = fs.lane_d(0)
-    v, te = 12.0, 6.0
-    s_e = -150 + v * te
-    return SlowDown(
-        "slow_down", "drives forward at 12 m/s and slows down to 4 m/s", "straight",
-        tuple(line((-150, y0), (190, y0))), v, ((0.0, v, 0.0), (te, 4.0, 0.35)), te, 16.0, fs,
-        s_e, v, 0, False, s_e + 32 + 4.0 * (16.0 - te - 3.0), junction_maps=("four_way",))
-
-
-TEMPLATE = _build()
+# it ends 32 m past the event plus 4 m/s for all but the last 3 s after it
+TEMPLATE = speed_change_on_straight(
+    SlowDown, "slow_down", "drives forward at 12 m/s and slows down to 4 m/s", speed=12.0, to_speed=4.0,
+    brake=0.35, stops=False, after_event=32 + 4.0 * (16.0 - 6.0 - 3.0))

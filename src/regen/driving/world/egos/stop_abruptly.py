@@ -7,10 +7,9 @@ from types import MappingProxyType
 from regen.driving.world.egos.base import (
     NOT_ON_STRAIGHT,
     EgoTemplate,
-    line,
+    speed_change_on_straight,
     stop_distance,
     stopping_states,
-    straight_frame,
 )
 from regen.driving.world.states import State
 
@@ -26,15 +25,6 @@ class StopAbruptly(EgoTemplate):
         return stopping_states()
 
 
-def _build() -> StopAbruptly:
-    fs = straight_frame()
-    y0 = fs.lane_d(0)
-    v, te = 10.0, 6.0
-    s_e = -150 + v * te
-    return StopAbruptly(
-        "stop_abruptly", "drives forward at 10 m/s and stops abruptly (full brake)", "straight",
-        tuple(line((-150, y0), (190, y0))), v, ((0.0, v, 0.0), (te, 0.0, 1.0)), te, 16.0, fs,
-        s_e, v, 0, True, s_e + stop_distance(v), junction_maps=("four_way",))
-
-
-TEMPLATE = _build()
+TEMPLATE = speed_change_on_straight(
+    StopAbruptly, "stop_abruptly", "drives forward at 10 m/s and stops abruptly (full brake)", speed=10.0,
+    to_speed=0.0, brake=1.0, stops=True, after_event=stop_distance(10.0))

@@ -1,0 +1,344 @@
+"""The main job, :func:`generate`: behavior -> graph -> paths -> ground -> simulate -> verify ->
+export, into a run folder, resuming what an earlier invocation left.
+
+:class:`MainJob` is one invocation on an opened run folder: one method per stage (:meth:`~MainJob.expand`,
+:meth:`~MainJob.ground`, :meth:`~MainJob.simulate`, :meth:`~MainJob.report`), the state they share
+(the manifest, the model client, the events file, the outcomes so far) on the object, and
+:meth:`~MainJob.run` running them in order and recording how the run ended. The work on one cause
+chain is the stage functions of :mod:`regen.pipeline.stages`; which paths run and their folder
+names are :func:`select_paths` and :func:`folder_names`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import time
+from collections.abc import Callable, Collection
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
+
+from regen import domains
+from regen.contract import DomainBackend
+from regen.core.behavior import Behavior
+from regen.core.graph import CausePath, ScenarioGraph
+from regen.core.io import cannot_write, storage_error, write_json
+from regen.core.verdict import Verdict
+from regen.errors import RegenError
+from regen.expand.expansion import expand as expand_behavior
+from regen.expand.run import save_graph
+from regen.interrupts import Interrupts
+from regen.llm.client import LLM
+from regen.pipeline.stages import (
+    ScenarioOutcome,
+    ground_stage,
+    needs_drawing,
+    redraw_stage,
+    simulate_stage,
+)
+from regen.pipeline.summary import Event, RunResult, finish
+from regen.promises.names import slug
+from regen.promises.secrets import redact
+from regen.runfolder import (
+    RunFolder,
+    RunManifest,
+    RunSettings,
+    ScenarioFolder,
+    merge_usage,
+    now,
+)
+
+
+def select_paths(paths: list[CausePath], k: int, *, first: Collection[str] = ()) -> list[CausePath]:
+    """Up to ``k`` paths: the causes in ``first`` (given with ``--cause``) before all others,
+    whatever ``k``; then one per root cause (diversity across causes), then property variants
+    of the same causes (same cause, different properties), in graph order."""
+    variants = [p.variants() for p in paths]
+    variants.sort(key=lambda v: v[0].events[0] not in first)  # stable: graph order otherwise
+    firsts = [v[0] for v in variants]
+    rest = [p for v in variants for p in v[1:]]
+    seen: set[str] = set()
+    ordered: list[CausePath] = []
+    for p in firsts:
+        (rest if p.events[0] in seen else ordered).append(p)
+        seen.add(p.events[0])
+    return (ordered + rest)[:k]
+
+
+def folder_names(paths: list[CausePath]) -> list[str]:
+    """Scenario folder names from the model's cause texts: slugged (:mod:`regen.promises.names`),
+    made unique by their place in run order."""
+    return [f"{i:02d}-{slug(p.events[0], fallback='scenario')}" for i, p in enumerate(paths, start=1)]
+
+
+def _worker_init(parent: int) -> None:
+    """In a simulation worker: die with the main process (a killed run leaves no worker behind,
+    writing into its folder), and leave Ctrl-C to the main process, which stops the pool."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        PR_SET_PDEATHSIG = 1  # Linux prctl option
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+    except (OSError, AttributeError):  # not Linux: workers end when the pool's pipe closes
+        pass
+    if os.getppid() != parent:  # the main process died before prctl took effect
+        os._exit(1)
+
+
+# --- the main job --------------------------------------------------------------------------------
+
+
+def generate(behavior: Behavior, out: Path, *, settings: RunSettings | None = None, llm: LLM | None = None,
+             replay: bool = False, fresh: bool = False,
+             on_event: Callable[[Event], None] | None = None) -> RunResult:
+    """Run the whole pipeline into ``out`` (resuming what an earlier run left).
+
+    Args:
+        behavior: the robot behavior and its domain.
+        out: the run folder.
+        settings: limits, model string, seed, workers.
+        llm: a model client (default: ``settings.llm`` with the run's cache file).
+        replay: forbid model calls; every answer must be in the run's cache.
+        fresh: discard an earlier run in ``out`` (its model cache is kept) instead of resuming.
+        on_event: called with progress events (also appended to events.jsonl).
+    """
+    settings = settings or RunSettings()
+    backend = domains.make(behavior.domain)
+    backend.check_behavior(behavior)
+    run = RunFolder(out)
+    manifest = run.open(behavior, settings, backend.settings_key(behavior), fresh=fresh)
+    try:
+        with Interrupts() as interrupts:
+            job = MainJob(run, manifest, backend, settings, interrupts, llm=llm, replay=replay, on_event=on_event)
+            return job.run()
+    finally:
+        run.unlock()
+
+
+class MainJob:
+    """One invocation of the main job on a run folder :meth:`RunFolder.open` has locked.
+
+    Made, it has started: ``run.json`` written as the run resumes, ``events.jsonl`` open for
+    appending, the model client made unless one was given (then its cache file is the run's, and
+    it is closed at the end). :meth:`run` runs the stages and returns the :class:`RunResult`."""
+
+    def __init__(self, run: RunFolder, manifest: RunManifest, backend: DomainBackend, settings: RunSettings,
+                 interrupts: Interrupts, *, llm: LLM | None = None, replay: bool = False,
+                 on_event: Callable[[Event], None] | None = None):
+        self.run_folder, self.manifest, self.backend, self.settings = run, manifest, backend, settings
+        self.interrupts = interrupts
+        self.on_event = on_event
+        self.behavior = manifest.behavior
+        run.write_manifest(manifest)
+        self.started = time.perf_counter()
+        self.events = open(run / run.EVENTS, "a", encoding="utf-8")
+        self.own_llm = llm is None  # made here: closed here (its cache file is the run's)
+        self.llm = llm if llm is not None else LLM(
+            settings.llm, cache=run.cache_path, replay=replay, timeout=settings.llm_timeout,
+            on_call=lambda c: self.emit("llm_call", purpose=c.purpose, cached=c.cached,
+                                        tokens=c.input_tokens + c.output_tokens))
+        self.earlier_usage = dict(manifest.usage)  # of the invocations before this one
+        self.outcomes: list[ScenarioOutcome] = []
+        self.graph: ScenarioGraph | None = None
+        self.disk_full = False  # the run folder took no more (a full disk, a read-only folder)
+
+    # --- progress ----------------------------------------------------------------------------
+
+    def emit(self, kind: str, **data: Any) -> None:
+        """One progress event: appended to events.jsonl and given to ``on_event``."""
+        ev = {"t": round(time.perf_counter() - self.started, 3), "event": kind, **data}
+        self.events.write(json.dumps(ev, default=str) + "\n")
+        self.events.flush()
+        if self.on_event:
+            self.on_event(ev)
+
+    def timed(self, stage: str, t0: float) -> None:
+        """Add the time since ``t0`` to the stage's total in run.json (a resume adds to it)."""
+        timings = self.manifest.timings
+        timings[stage] = timings.get(stage, 0.0) + time.perf_counter() - t0
+
+    # --- the stages --------------------------------------------------------------------------
+
+    def run(self) -> RunResult:
+        """Expand, ground, simulate; then how the run ended goes into run.json, whatever ended
+        it (:meth:`close`): done, interrupted, a model error, or a disk that takes no more."""
+        run, manifest = self.run_folder, self.manifest
+        try:
+            paths = self.expand()
+            pending = self.ground(paths)
+            self.simulate(pending)
+            self.interrupts.check()
+            manifest.status = "done"
+        except KeyboardInterrupt:
+            manifest.status = "interrupted"
+            manifest.message = "interrupted; run the same command again to resume"
+            raise
+        except RegenError as exc:
+            manifest.status = "failed"
+            # redacted: run.json and the report keep it (a provider's error may echo a key)
+            manifest.message = redact(f"{exc}; fix this and run the same command again to resume", credentials=False)
+            raise
+        except OSError as exc:
+            if not cannot_write(exc, run.path):
+                raise
+            error = storage_error(exc, run.path)
+            manifest.status, manifest.message = "failed", str(error)
+            self.disk_full = True
+            raise error from None
+        finally:
+            self.close()
+        return RunResult(run.path, manifest, self.graph, self.outcomes)
+
+    def expand(self) -> list[CausePath]:
+        """The cause graph (graph.json as it grows, then its pictures), and the cause paths to run,
+        their folder names in run.json."""
+        run, settings, backend = self.run_folder, self.settings, self.backend
+        self.emit("stage", stage="expand")
+        t0 = time.perf_counter()
+        self.graph = graph = expand_behavior(
+            self.behavior, self.llm, database=backend.database(), backend=backend, limits=settings.limits(),
+            prior=settings.prior, candidates=settings.candidates, forced_causes=settings.forced_causes,
+            on_update=lambda g, what: (write_json(run / run.GRAPH, g),
+                                       self.emit("graph", step=what, nodes=len(g.nodes))))
+        if graph.stop_reason and "interrupted" in graph.stop_reason:
+            raise KeyboardInterrupt
+        self.interrupts.check()
+        save_graph(graph, run.path, pictures=settings.pictures)
+        self.timed("expand", t0)
+        insisted = {n.label for n in graph.events() if any(d.by == "user" for d in n.history)}
+        paths = select_paths(graph.paths(), settings.max_scenarios, first=insisted)
+        self.manifest.scenarios = folder_names(paths)
+        run.write_manifest(self.manifest)
+        self.emit("paths", total=len(paths), names=self.manifest.scenarios)
+        return paths
+
+    def ground(self, paths: list[CausePath]) -> list[str]:
+        """Ground each cause path into its scenario folder; the names of those left to simulate
+        (grounded now or by an earlier invocation). A finished scenario is kept (:meth:`keep`)."""
+        self.emit("stage", stage="ground")
+        t0 = time.perf_counter()
+        pending: list[str] = []
+        for i, (path, name) in enumerate(zip(paths, self.manifest.scenarios, strict=True)):
+            folder = self.run_folder.scenario(name)
+            if not folder.holds(path):  # made for another cause path, or never started
+                folder.reset(grounding=True)
+            done = folder.verdict()
+            if done is not None:
+                self.keep(name, folder, done)
+                continue
+            if folder.scenario() is not None:  # grounded in an earlier invocation
+                pending.append(name)
+                continue
+            self.emit("grounding", name=name)
+            verdict = ground_stage(self.backend, path, self.llm, folder, seed=self.settings.seed + i)
+            self.interrupts.check()
+            if verdict is None:
+                pending.append(name)
+            else:
+                self.outcomes.append(ScenarioOutcome(name, verdict, path=folder.path))
+                self.emit("scenario_done", name=name, feasible=False, status=verdict.status, reason=verdict.reason)
+        self.timed("ground", t0)
+        return pending
+
+    def keep(self, name: str, folder: ScenarioFolder, done: Verdict) -> None:
+        """A scenario an earlier invocation finished: its outcome, its missing pictures or exports
+        drawn again first (a first Ctrl-C lets the drawing finish)."""
+        if needs_drawing(folder, done, self.settings.pictures):
+            self.emit("redrawing", name=name)
+            with self.interrupts.deferred():
+                redraw_stage(self.behavior.domain, str(folder.path), self.settings.pictures)
+            self.interrupts.check()
+        self.outcomes.append(ScenarioOutcome(name, done, skipped=True, path=folder.path))
+        self.emit("scenario_done", name=name, feasible=done.feasible, status=done.status, skipped=True)
+
+    def simulate(self, pending: list[str]) -> None:
+        """Simulate, verify, draw and export each grounded scenario (:func:`simulate_stage`): in
+        worker processes when the settings ask for more than one and more than one is pending,
+        else here."""
+        self.emit("stage", stage="simulate", total=len(pending))
+        t0 = time.perf_counter()
+        dirs = {name: str(self.run_folder.scenario(name).path) for name in pending}
+        if self.settings.workers > 1 and len(pending) > 1:
+            self.simulate_in_workers(dirs)
+        else:
+            self.simulate_here(dirs)
+        self.timed("simulate", t0)
+
+    def simulate_in_workers(self, dirs: dict[str, str]) -> None:
+        """The scenarios of ``dirs`` (name -> folder) in a process pool, collected in run order;
+        on an interrupt or an error the running ones finish and are kept."""
+        domain, pictures = self.behavior.domain, self.settings.pictures
+        pool = ProcessPoolExecutor(max_workers=self.settings.workers, initializer=_worker_init,
+                                   initargs=(os.getpid(),))
+        try:
+            futs = {name: pool.submit(simulate_stage, domain, folder, pictures) for name, folder in dirs.items()}
+            for name, fut in futs.items():
+                self.collect(name, dirs[name], fut.result())
+                self.interrupts.check()
+        except BaseException:
+            pool.shutdown(wait=True, cancel_futures=True)  # running scenarios finish and are kept
+            raise
+        pool.shutdown()
+
+    def simulate_here(self, dirs: dict[str, str]) -> None:
+        """The scenarios of ``dirs`` (name -> folder) one after the other in this process; a first
+        Ctrl-C lets the current one finish (kept), then the run stops."""
+        for name, folder in dirs.items():
+            self.emit("simulating", name=name)
+            with self.interrupts.deferred():
+                done = simulate_stage(self.behavior.domain, folder, self.settings.pictures)
+            self.collect(name, folder, done)
+            self.interrupts.check()
+
+    def collect(self, name: str, folder: str, res: dict[str, Any]) -> None:
+        """The outcome of one simulated scenario (:func:`simulate_stage`'s plain data)."""
+        verdict = Verdict.model_validate(res["verdict"])
+        self.outcomes.append(ScenarioOutcome(name, verdict, timings=res["timings"], path=Path(folder)))
+        self.emit("scenario_done", name=name, feasible=verdict.feasible, status=verdict.status,
+                  reason=verdict.reason)
+
+    def report(self) -> None:
+        """summary.json and report.html, then run.json (:func:`regen.pipeline.summary.finish`)."""
+        finish(self.run_folder, self.manifest, self.outcomes, self.emit)
+
+    # --- the end -----------------------------------------------------------------------------
+
+    def close(self) -> None:
+        """How the run ended, into run.json: the model usage, the outcomes in run order, and the
+        summary and report when there is a graph (:meth:`report`); after a disk that took no more,
+        run.json only (the summary and report wait for the resume). Then the events file and the
+        model client this job made are closed."""
+        run, manifest = self.run_folder, self.manifest
+        manifest.usage_last = self.llm.stats.as_dict()
+        manifest.usage = merge_usage(self.earlier_usage, manifest.usage_last)
+        manifest.finished = now()
+        order = {n: i for i, n in enumerate(manifest.scenarios)}
+        self.outcomes.sort(key=lambda o: order.get(o.folder, 1 << 30))
+        try:
+            if self.disk_full:  # say so in run.json; the summary and report wait for the resume
+                run.record_failure(manifest)
+            elif self.graph is not None:
+                self.report()
+            else:
+                run.write_manifest(manifest)
+        except OSError as exc:
+            if not cannot_write(exc, run.path):
+                raise
+            error = storage_error(exc, run.path)
+            manifest.status, manifest.message = "failed", str(error)
+            run.record_failure(manifest)
+            raise error from None
+        finally:
+            with contextlib.suppress(OSError):  # a full disk may refuse the last flush too
+                self.events.close()
+            if self.own_llm:
+                self.llm.cache.close()
+
+
+__all__ = ["MainJob", "folder_names", "generate", "select_paths"]
