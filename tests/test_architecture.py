@@ -124,3 +124,13 @@ def test_package_inits_only_reexport() -> None:
                 for p in sorted(SRC.rglob("__init__.py")) for n in ast.parse(p.read_text(encoding="utf-8")).body
                 if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef))]
     assert not defining, "package __init__ files that define functions or classes: " + "; ".join(defining)
+
+
+def test_no_module_imports_a_private_name_of_another() -> None:
+    import ast
+
+    private = [f"{p.relative_to(SRC)}:{n.lineno} {n.module}.{a.name}"
+               for p in sorted(SRC.rglob("*.py")) for n in ast.walk(ast.parse(p.read_text(encoding="utf-8")))
+               if isinstance(n, ast.ImportFrom) and (n.module or "").startswith("regen")
+               for a in n.names if a.name.startswith("_") and not a.name.startswith("__")]
+    assert not private, "private names imported from another module: " + "; ".join(private)

@@ -12,7 +12,7 @@ import pytest
 from driving_chains import chain
 
 from regen.driving.grounding.rules import ground_rule_based
-from regen.driving.primitives._attention import START_DELAY
+from regen.driving.primitives.shared.attention import START_DELAY
 
 CAUSE = "a distracted driver ahead fails to move despite a green light"
 

@@ -2,7 +2,7 @@ import pytest
 
 from regen.core.behavior import Behavior
 from regen.core.graph import CausePath, PathEntity
-from regen.driving.primitives._lead import FULL_BRAKE, SLOW_LEVEL, slow_speed
+from regen.driving.primitives.shared.lead import FULL_BRAKE, SLOW_LEVEL, slow_speed
 from regen.driving.world.egos import EGO_SIZE
 
 

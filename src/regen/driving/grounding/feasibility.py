@@ -19,7 +19,7 @@ from regen.verify.predicates import PredicateSpec, list_predicates
 # Left out of the model's menu: `state_is` duplicates the property predicates with free-text
 # keys, and `collided`, `collides` and `collision` ask for a crash that placements are solved to
 # avoid (they stay in the library for verification and behavior tests); `stopped_on_green` is a
-# cause stage the rules write for a distracted driver at its light (regen.driving.primitives._attention).
+# cause stage the rules write for a distracted driver at its light (regen.driving.primitives.shared.attention).
 HIDDEN_PREDICATES = {"state_is", "collided", "collides", "collision", "stopped_on_green"}
 _PROPERTY_PREDICATES = {"siren_on", "door_open", "hazard_lights_on", "light_is", "signal_degraded",
                         "perceived_error_above"}

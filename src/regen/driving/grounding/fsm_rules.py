@@ -18,8 +18,8 @@ from collections.abc import Sequence
 
 from regen.core.scenario import FSM, AbstractState, PredicateCall, Stage, StateRef
 from regen.driving.primitives import for_actor
-from regen.driving.primitives._attention import min_wait, waiting_at_green
 from regen.driving.primitives.base import RuleStates, State, pred
+from regen.driving.primitives.shared.attention import min_wait, waiting_at_green
 from regen.driving.world.actors import RoleChoice
 from regen.driving.world.egos import EgoTemplate
 from regen.verify.predicates import get_predicate

@@ -14,8 +14,8 @@ from typing import Any
 
 from regen.core.scenario import SolverReport
 from regen.driving.primitives import find, for_actor
-from regen.driving.primitives._attention import couple
 from regen.driving.primitives.base import SPEED_CLASSES
+from regen.driving.primitives.shared.attention import couple
 from regen.driving.world.actors import ActorSpec, RoleChoice
 from regen.driving.world.egos import EgoTemplate
 from regen.driving.world.placement import DM, PlacementModel

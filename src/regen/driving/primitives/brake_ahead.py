@@ -9,8 +9,8 @@ recorder reads them off its deceleration) unless the graph says they are broken.
 
 from __future__ import annotations
 
-from regen.driving.primitives import _lanes, _lead
 from regen.driving.primitives.base import Placed, RuleStates, VehiclePrimitive
+from regen.driving.primitives.shared import lanes, lead
 from regen.driving.world.actors import ActorSpec, RoleChoice
 from regen.driving.world.egos import EgoTemplate
 from regen.driving.world.placement import PlacementModel
@@ -21,9 +21,9 @@ def _constrain(m: PlacementModel, a: ActorSpec, speeds: tuple[float, float]) -> 
     s, v = m.start(a, speeds)
     e = m.ego
     if e.stops:
-        _lead.brakes_to_a_stop(m, a, s, v)
+        lead.brakes_to_a_stop(m, a, s, v)
     elif e.speed_event > 0.0:
-        _lead.brakes_to_slow(m, a, s, v)
+        lead.brakes_to_slow(m, a, s, v)
     else:  # nothing drives ahead of an ego that waits at its start
         m.at_most(a, "brakes in front of a moving ego (this ego waits at its start)", v, -1.0)
 
@@ -31,16 +31,16 @@ def _constrain(m: PlacementModel, a: ActorSpec, speeds: tuple[float, float]) -> 
 def _plan(placed: Placed) -> ActorPlan:
     fr, p, ego = placed.ego.frame, placed.params, placed.ego
     s, v, t = p.get("s", 0.0), p.get("v", 0.0), p.get("t", 0.0)
-    route = _lanes.straight(fr, s, s + _lanes.ROUTE_AHEAD, placed.lateral)
+    route = lanes.straight(fr, s, s + lanes.ROUTE_AHEAD, placed.lateral)
     x, y = route[0]
-    after, level = (0.0, 1.0) if ego.stops else (_lead.slow_speed(ego), _lead.SLOW_LEVEL)
+    after, level = (0.0, 1.0) if ego.stops else (lead.slow_speed(ego), lead.SLOW_LEVEL)
     schedule = [(0.0, v, 0.0)] + ([(t, after, level)] if t > 0 else [])
     return placed.actor_plan(x=x, y=y, heading=fr.heading, speed0=v, route=route, schedule=schedule,
-                             trigger=_lead.brake_trigger(placed))
+                             trigger=lead.brake_trigger(placed))
 
 
 def _rule_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:
-    return _lead.braking_states(r.name, t)
+    return lead.braking_states(r.name, t)
 
 
 SPEC = VehiclePrimitive(name="brake_ahead", starts=("ahead_same_lane",), add_constraints=_constrain,

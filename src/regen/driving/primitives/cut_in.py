@@ -1,13 +1,13 @@
 """cut_in: a faster vehicle overtakes the ego in the next lane and cuts in close in front.
 
 It keeps pace with the ego and cuts in as far ahead of it as in the template, whatever the ego's
-speed (:func:`regen.driving.primitives._lanes.lane_change_plan`).
+speed (:func:`regen.driving.primitives.shared.lanes.lane_change_plan`).
 """
 
 from __future__ import annotations
 
-from regen.driving.primitives import _lanes
 from regen.driving.primitives.base import RuleStates, VehiclePrimitive, pred
+from regen.driving.primitives.shared import lanes
 from regen.driving.world.actors import ActorSpec, RoleChoice
 from regen.driving.world.egos import EgoTemplate
 from regen.driving.world.placement import DM, PlacementModel
@@ -16,8 +16,8 @@ from regen.driving.world.placement import DM, PlacementModel
 def _constrain(m: PlacementModel, a: ActorSpec, speeds: tuple[float, float]) -> None:
     e = m.ego
     s, v = m.start(a, speeds)
-    _lanes.s_at_event(m, a, s, v)
-    _lanes.overtakes(m, a, s, v)
+    lanes.s_at_event(m, a, s, v)
+    lanes.overtakes(m, a, s, v)
     t = m.trigger(a)
     m.at_least(a, "cuts in 0.8 to 2.5 s before the ego's event", t, e.t_event - 2.5)
     m.at_most(a, "cuts in at least 0.8 s before the ego's event", t, e.t_event - 0.8)
@@ -35,5 +35,5 @@ def _rule_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:
 
 
 SPEC = VehiclePrimitive(name="cut_in", starts=("behind_adjacent_lane",), leaves_line=True,
-                        add_constraints=_constrain, build_plan=_lanes.lane_change_plan,
+                        add_constraints=_constrain, build_plan=lanes.lane_change_plan,
                         rule_states=_rule_states)

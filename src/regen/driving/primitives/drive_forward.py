@@ -13,8 +13,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from regen.driving.primitives import _lanes, _lead
 from regen.driving.primitives.base import Placed, RuleStates, VehiclePrimitive, pred
+from regen.driving.primitives.shared import lanes, lead
 from regen.driving.world.actors import ActorSpec, RoleChoice
 from regen.driving.world.egos import EgoTemplate
 from regen.driving.world.placement import DM, PlacementModel
@@ -31,7 +31,7 @@ def _reaction(a: RoleChoice) -> float:
 def _leads(m: PlacementModel, a: ActorSpec, s: Any, v: Any, s_te: Any) -> None:
     e, half, te = m.ego, m.half(a), m.ego.t_event
     if e.stops:  # it brakes first and comes to rest ahead of where the ego stops
-        _lead.brakes_to_a_stop(m, a, s, v)
+        lead.brakes_to_a_stop(m, a, s, v)
     elif e.speed_event == 0.0:  # the ego waits behind it, then both go
         t = m.trigger(a)
         m.at_least(a, "departs 0.5 to 2 s before the ego", t, te - 2.0)
@@ -60,12 +60,12 @@ def _follows(m: PlacementModel, a: ActorSpec, s: Any, v: Any, s_te: Any) -> None
 
 
 def _next_lane_ahead(m: PlacementModel, a: ActorSpec, s: Any, v: Any, s_te: Any) -> None:
-    _lanes.ahead_in_next_lane(m, a, s_te)
+    lanes.ahead_in_next_lane(m, a, s_te)
 
 
 def _overtakes(m: PlacementModel, a: ActorSpec, s: Any, v: Any, s_te: Any) -> None:
     e, half = m.ego, m.half(a)
-    _lanes.overtakes(m, a, s, v)
+    lanes.overtakes(m, a, s, v)
     m.at_least(a, "is close behind the ego at its event (within 25 m)", s_te, e.s_event - 25.0)
     m.at_most(a, "has not passed the ego at its event", s_te, e.s_event - half)
     m.require(f"{a.name}: passes the ego before the end",
@@ -85,7 +85,7 @@ def _oncoming(m: PlacementModel, a: ActorSpec, s: Any, v: Any, s_te: Any) -> Non
 def _leading_states(a: str, t: EgoTemplate) -> RuleStates:
     e = "ego"
     if t.stops:  # it brakes in front of the ego
-        return _lead.braking_states(a, t)
+        return lead.braking_states(a, t)
     if t.speed_event == 0.0:  # it waits in front of the ego, then departs
         return RuleStates(
             cause=(("waiting_ahead", [pred("stopped", a), pred("in_front", a, e, distance=20.0)]),
@@ -166,7 +166,7 @@ class _Start:
 # start location -> what it does from there (in the order offered)
 _STARTS: dict[str, _Start] = {
     "ahead_same_lane": _Start(constrain=_leads, states=_leading_states, timing=_leading_timing,
-                              trigger=_lead.brake_trigger),
+                              trigger=lead.brake_trigger),
     "behind_same_lane": _Start(constrain=_follows, states=_following_states, timing=_following_timing,
                                trigger=_following_trigger),
     "ahead_adjacent_lane": _Start(constrain=_next_lane_ahead, states=_next_lane_states),
@@ -177,7 +177,7 @@ _STARTS: dict[str, _Start] = {
 
 def _constrain(m: PlacementModel, a: ActorSpec, speeds: tuple[float, float]) -> None:
     s, v = m.start(a, speeds)
-    s_te = _lanes.s_at_event(m, a, s, v)
+    s_te = lanes.s_at_event(m, a, s, v)
     _STARTS[a.location].constrain(m, a, s, v, s_te)
 
 
@@ -186,7 +186,7 @@ def _plan(placed: Placed) -> ActorPlan:
     fr, p = placed.ego.frame, placed.params
     s, v = p.get("s", 0.0), p.get("v", 0.0)
     sign = -1.0 if start.towards_ego else 1.0
-    route = _lanes.straight(fr, s, s + sign * _lanes.ROUTE_AHEAD, placed.lateral)
+    route = lanes.straight(fr, s, s + sign * lanes.ROUTE_AHEAD, placed.lateral)
     x, y = route[0]
     departs, brakes = start.timing(placed)
     schedule = [(0.0, v, 0.0)]

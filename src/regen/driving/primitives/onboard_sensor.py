@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import math
 
-from regen.driving.primitives import _switch
 from regen.driving.primitives.base import Placed, Primitive, RuleStates, pred
+from regen.driving.primitives.shared import switch
 from regen.driving.world.actors import ActorSpec, RoleChoice
 from regen.driving.world.egos import EgoTemplate
 from regen.driving.world.placement import PlacementModel
@@ -16,7 +16,7 @@ SENSOR_SIZE = 0.1  # [m] length, width and height of the marker a sensor gets in
 
 
 def _constrain(m: PlacementModel, a: ActorSpec, speeds: tuple[float, float]) -> None:
-    _switch.switch_time(m, a)
+    switch.switch_time(m, a)
 
 
 def _plan(placed: Placed) -> ActorPlan:

@@ -9,9 +9,9 @@ from __future__ import annotations
 
 from types import MappingProxyType
 
-from regen.driving.primitives import _junction
 from regen.driving.primitives.base import RuleStates, VehiclePrimitive, pred
 from regen.driving.primitives.run_red_light import SPEC as RUN_RED_LIGHT
+from regen.driving.primitives.shared import junction
 from regen.driving.world.actors import RoleChoice
 from regen.driving.world.egos import EgoTemplate
 
@@ -26,5 +26,5 @@ def _rule_states(r: RoleChoice, t: EgoTemplate) -> RuleStates:
 
 # in the junction from 1.2 s before to 0.8 s after the ego's event
 SPEC = VehiclePrimitive(name="pass_through", starts=("junction_cross_street",), needs_junction=True,
-                        add_constraints=_junction.approach(early=1.2, late=0.8), build_plan=RUN_RED_LIGHT.build_plan,
+                        add_constraints=junction.approach(early=1.2, late=0.8), build_plan=RUN_RED_LIGHT.build_plan,
                         rule_states=_rule_states, implies=MappingProxyType({"siren": "on"}))

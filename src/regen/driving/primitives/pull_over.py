@@ -2,7 +2,7 @@
 
 It drives ahead of the ego no faster than it, starts to pull over shortly before the ego's event
 (keeping pace with the ego until then, as a lane change does:
-:func:`regen.driving.primitives._lanes.lane_change_plan`), moves out of the lane onto the curb
+:func:`regen.driving.primitives.shared.lanes.lane_change_plan`), moves out of the lane onto the curb
 edge where parked cars stand, and brakes to a stop there: a car stopping for a passenger, a
 breakdown, a vehicle making way.
 """
@@ -11,8 +11,8 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from regen.driving.primitives import _lanes
 from regen.driving.primitives.base import Placed, RuleStates, VehiclePrimitive, pred
+from regen.driving.primitives.shared import lanes
 from regen.driving.world.actors import ActorSpec, RoleChoice
 from regen.driving.world.egos import EgoTemplate
 from regen.driving.world.locations import roadside_d
@@ -38,7 +38,7 @@ def pull_length(v: float) -> float:
 def _constrain(m: PlacementModel, a: ActorSpec, speeds: tuple[float, float]) -> None:
     e, half = m.ego, m.half(a)
     s, v = m.start(a, speeds)
-    _lanes.s_at_event(m, a, s, v)
+    lanes.s_at_event(m, a, s, v)
     m.at_least(a, "starts ahead of the ego in its lane", s, m.ego_s(0.0) + half + 6.0)
     m.at_most(a, f"drives no faster than the ego (v <= {e.speed_event:.0f} m/s)", v, e.speed_event)
     t = m.trigger(a)
@@ -53,15 +53,15 @@ def _constrain(m: PlacementModel, a: ActorSpec, speeds: tuple[float, float]) -> 
 
 
 def _plan(placed: Placed) -> ActorPlan:
-    """The lane change of :func:`_lanes.lane_change_plan`, to the curb, then a stop there."""
-    plan = _lanes.lane_change_plan(placed)
+    """The lane change of :func:`lanes.lane_change_plan`, to the curb, then a stop there."""
+    plan = lanes.lane_change_plan(placed)
     fr, p = placed.ego.frame, placed.params
     d = curb_d(placed.ego, placed.actor.size[1])
     s, v, t = p.get("s", 0.0), p.get("v", 0.0), p.get("t", 0.0)
     s_change = round(s + v * t, 4)
     length = pull_length(v)
-    plan.route = (_lanes.straight(fr, s, s_change, placed.lateral)
-                  + _lanes.straight(fr, s_change + length, s_change + _lanes.ROUTE_AHEAD, d))
+    plan.route = (lanes.straight(fr, s, s_change, placed.lateral)
+                  + lanes.straight(fr, s_change + length, s_change + lanes.ROUTE_AHEAD, d))
     assert plan.lane_change is not None
     plan.lane_change = replace(plan.lane_change, d_to=d, length=length)
     brake = t + BRAKE_SHARE * length / max(v, 1.0)

@@ -8,8 +8,9 @@ from __future__ import annotations
 
 import math
 
-from regen.driving.primitives import _switch, stationary
 from regen.driving.primitives.base import Placed, Primitive, RuleStates, pred
+from regen.driving.primitives import stationary
+from regen.driving.primitives.shared import switch
 from regen.driving.world.actors import ActorSpec, RoleChoice
 from regen.driving.world.egos import EgoTemplate
 from regen.driving.world.maps import geometry
@@ -22,7 +23,7 @@ MIN_GREEN = 0.5  # [s] a light that turns red shows green at least this long fir
 
 
 def _constrain(m: PlacementModel, a: ActorSpec, speeds: tuple[float, float]) -> None:
-    t = _switch.switch_time(m, a)
+    t = switch.switch_time(m, a)
     if a.properties.get("light_state") == "turns_red":
         # green first long enough to be seen, else the turning is not shown
         t_min = MIN_GREEN + YELLOW_TIME

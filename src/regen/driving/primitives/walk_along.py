@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import math
 
-from regen.driving.primitives import _lanes
 from regen.driving.primitives.base import PedestrianPrimitive, Placed, RuleStates, pred
+from regen.driving.primitives.shared import lanes
 from regen.driving.world.actors import ActorSpec, RoleChoice
 from regen.driving.world.egos import EgoTemplate
 from regen.driving.world.locations import LOCATIONS
@@ -24,7 +24,7 @@ def _constrain(m: PlacementModel, a: ActorSpec, speeds: tuple[float, float]) -> 
 def _plan(placed: Placed) -> ActorPlan:
     fr, p = placed.ego.frame, placed.params
     s = p.get("s", 0.0)
-    route = _lanes.straight(fr, s, s - WALK_LENGTH, fr.sidewalk_d(LOCATIONS[placed.actor.location].side))
+    route = lanes.straight(fr, s, s - WALK_LENGTH, fr.sidewalk_d(LOCATIONS[placed.actor.location].side))
     x, y = route[0]
     return placed.actor_plan(x=x, y=y, heading=fr.heading + math.pi, route=route,
                              schedule=[(0.0, p.get("v", 0.0), 0.0)])

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import math
 
-from regen.driving.primitives import _lanes
 from regen.driving.primitives.base import Placed, RuleStates, VehiclePrimitive, pred
+from regen.driving.primitives.shared import lanes
 from regen.driving.world.actors import ActorSpec, RoleChoice
 from regen.driving.world.egos import EgoTemplate
 from regen.driving.world.placement import DM, PlacementModel
@@ -45,7 +45,7 @@ def _plan(placed: Placed) -> ActorPlan:
     ego, p = placed.ego, placed.params
     fr = ego.frame
     s, v, t = p.get("s", 0.0), p.get("v", 0.0), p.get("t", 0.0)
-    route = _lanes.straight(fr, s, s - _lanes.ROUTE_AHEAD, placed.lateral)
+    route = lanes.straight(fr, s, s - lanes.ROUTE_AHEAD, placed.lateral)
     x, y = route[0]
     s_brake = s - v * t
     return placed.actor_plan(x=x, y=y, heading=fr.heading + math.pi, speed0=v, route=route,
