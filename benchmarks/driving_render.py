@@ -51,7 +51,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         os.environ["REGEN_CACHE_DIR"] = str(Path(tmp) / "cache")
         from regen.contract import ANIMATION, KEYFRAMES
-        from regen.driving.export.openscenario import export_openscenario, validate_xosc
+        from regen.driving.interop.openscenario import export_openscenario, validate_xosc
         from regen.driving.render.scenario import render_scenario
         from regen.driving.world.maps import ensure_map
 

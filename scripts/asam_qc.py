@@ -11,7 +11,7 @@ import hashlib
 import sys
 from pathlib import Path
 
-from regen.driving.export.qc import check_file
+from regen.driving.interop.qc import check_file
 
 
 def main(args: list[str]) -> int:

@@ -5,7 +5,7 @@ Usage:
     python scripts/interop_check.py --chains DIR [RUN ...]  # also run every hand-written chain into DIR
 
 The four checks per scenario (ASAM bundles, a start relative to the ego, the CARLA program,
-the import round trip) are :mod:`regen.driving.export.interop`'s. Exit code 1 when any fails.
+the import round trip) are :mod:`regen.driving.interop.roundtrip`'s. Exit code 1 when any fails.
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ def _chains(dest: Path) -> list[Path]:
 
 
 def main(argv: list[str]) -> int:
-    from regen.driving.export.interop import check_folder
+    from regen.driving.interop.roundtrip import check_folder
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("runs", nargs="*", type=Path)

@@ -57,7 +57,7 @@ def test_a_planted_upward_import_breaks_the_contract(tmp_path: Path) -> None:
     assert "regen.verify.planted -> regen.driving.backend" in result.stdout
 
 
-STAGES = {"world", "primitives", "grounding", "simulation", "verify", "render", "export", "testing", "gym"}
+STAGES = {"world", "primitives", "grounding", "simulation", "verify", "render", "interop", "testing", "gym"}
 
 
 def test_driving_holds_only_its_stages() -> None:

@@ -26,7 +26,7 @@ def _interop_tools() -> bool:
     try:
         import carla  # noqa: F401
 
-        from regen.driving.export.qc import program
+        from regen.driving.interop.qc import program
 
         program(".xodr")
         program(".xosc")
@@ -91,7 +91,7 @@ def test_recorded_main_job_verifies_distinct_causes_as_the_graph_chose_and_resum
     # every scenario runs elsewhere and comes back: both ASAM bundles, a cause started on the ego
     # where its trigger is relative, the CARLA program on CARLA's map, the import round trip
     if _interop_tools():
-        from regen.driving.export.interop import check_folder
+        from regen.driving.interop.roundtrip import check_folder
 
         maps: set[str] = set()
         for o in res.outcomes:

@@ -107,7 +107,7 @@ def test_import_a_road_network_that_is_a_folder(tmp_path: Path) -> None:
 
 
 def test_import_a_map_with_a_signal_whose_s_is_not_a_number(tmp_path: Path) -> None:
-    from regen.driving.export.signals import Light, with_signals
+    from regen.driving.interop.signals import Light, with_signals
     from regen.driving.world.maps import ensure_map
 
     xodr, _ = with_signals(ensure_map("straight").read_text(encoding="utf-8"), [Light("light1", -100.0, -8.0, 0.0)])
@@ -152,7 +152,7 @@ def test_import_reads_the_exporters_attributes_without_naming_them(tmp_path: Pat
     """What the reader passes over is named only when it could change the replay: the hand-written
     file (performance, axles, bounding-box centres, condition edges, a trajectory's following
     mode) and one walking a trajectory read as before."""
-    from regen.driving.export.xosc_read import read_xosc
+    from regen.driving.interop.xosc_read import read_xosc
 
     assert len(read_xosc(HAND).events) == 2
     f = _xosc(tmp_path, "trajectory", _with_trajectory())

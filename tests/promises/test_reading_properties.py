@@ -350,8 +350,8 @@ def scenario(draw) -> bytes:
 
 
 def test_an_openscenario_file_imports_or_gives_a_regen_error(scratch: Path) -> None:
-    from regen.driving.export.importing import import_xosc
-    from regen.driving.export.xosc_read import read_xosc
+    from regen.driving.interop.importing import import_xosc
+    from regen.driving.interop.xosc_read import read_xosc
 
     reached: Counter[str] = Counter()
 

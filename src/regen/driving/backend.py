@@ -246,8 +246,8 @@ class DrivingBackend(DomainBackend):
     import_suffixes = (".xosc",)
 
     def import_scenario(self, path: Path) -> Scenario:
-        """An OpenSCENARIO 1.x file (:mod:`regen.driving.export.importing`)."""
-        from regen.driving.export.importing import import_xosc
+        """An OpenSCENARIO 1.x file (:mod:`regen.driving.interop.importing`)."""
+        from regen.driving.interop.importing import import_xosc
 
         return import_xosc(path)
 
@@ -278,17 +278,17 @@ class DrivingBackend(DomainBackend):
         return reference_world(scenario, cause)
 
     def config(self, scenario: Scenario) -> dict:
-        from regen.driving.export.config import paper_config
+        from regen.driving.interop.config import paper_config
 
         return paper_config(scenario)
 
     def export(self, scenario: Scenario, out_dir: Path, trace: Trace | None = None) -> dict[str, Path]:
         """The Scenic program that runs the scenario, and with a trace an OpenSCENARIO replay."""
-        from regen.driving.export.scenic import export_scenic
+        from regen.driving.interop.scenic import export_scenic
 
         files = export_scenic(scenario, Path(out_dir))
         if trace is not None:
-            from regen.driving.export.openscenario import export_openscenario
+            from regen.driving.interop.openscenario import export_openscenario
 
             files.update(export_openscenario(scenario, trace, out_dir))
         return files

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import math
 
-from regen.driving.primitives.base import Placed, Primitive, RuleStates, pred
 from regen.driving.primitives import stationary
+from regen.driving.primitives.base import Placed, Primitive, RuleStates, pred
 from regen.driving.primitives.shared import switch
 from regen.driving.world.actors import ActorSpec, RoleChoice
 from regen.driving.world.egos import EgoTemplate

@@ -1,4 +1,4 @@
-"""The actors of an imported OpenSCENARIO file in a scenario (:mod:`regen.driving.export.importing`
+"""The actors of an imported OpenSCENARIO file in a scenario (:mod:`regen.driving.interop.importing`
 reads them into :class:`~regen.driving.world.setting.ImportedStoryboard`).
 
 They ride on the behavior, as a recorded ego does, so every scenario grounded for that behavior

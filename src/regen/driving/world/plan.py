@@ -83,7 +83,7 @@ class ActorPlan:
     comment: str = ""
     # 'ReplayPath': the pose (x, y, heading [rad from +x], speed) at every step, set exactly
     replay: list[tuple[float, float, float, float]] = field(default_factory=list)
-    # an imported cause event (regen.driving.export.importing): after ``trigger`` fires, these poses
+    # an imported cause event (regen.driving.interop.importing): after ``trigger`` fires, these poses
     # from that step on, in map coordinates or (``after_relative``) from where the actor was then
     after: list[tuple[float, float, float, float]] = field(default_factory=list)
     after_relative: bool = False

@@ -38,7 +38,7 @@ class RecordedEgo(Model):
 class ImportedActor(Model):
     """An actor of an imported OpenSCENARIO storyboard (``regen import``): its motion replayed
     exactly, one pose per simulation step, and the cause event that a condition on the ego
-    starts (:mod:`regen.driving.export.importing`)."""
+    starts (:mod:`regen.driving.interop.importing`)."""
 
     name: str  # the entity's name in the scenario
     source: str  # its ScenarioObject name in the file

@@ -26,7 +26,7 @@ moment, so that any ego sets it off in the same situation:
 ``time``
     absolute time ``t_trig`` (an ego that waits: nothing about it tells when to act).
 ``near``
-    an imported OpenSCENARIO condition (:mod:`regen.driving.export.importing`): the ego's
+    an imported OpenSCENARIO condition (:mod:`regen.driving.interop.importing`): the ego's
     straight-line distance to the point falls to ``distance`` [m] or below (a negative distance:
     never), or that distance over its speed to ``tta`` [s] or below (0: not used).
 

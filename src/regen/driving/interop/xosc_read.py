@@ -14,7 +14,7 @@ element, attribute and value and where it is, never dropped silently):
   cubic or sinusoidal dynamics over time, distance or rate);
 - ``TrafficSignalStateAction`` (in ``Init`` and in events): a signal of the map, by its id;
   ``UserDefinedAction/CustomCommandAction`` of the types this project writes (``regen:door``,
-  ``regen:siren``, ``regen:hazard_lights``; :mod:`regen.driving.export.appearance`) and, from
+  ``regen:siren``, ``regen:hazard_lights``; :mod:`regen.driving.interop.appearance`) and, from
   OpenSCENARIO 1.3 files, ``AppearanceAction``: a door's ``AnimationAction``, the
   ``LightStateAction`` of special purpose lights (a siren) and warning lights (hazard lights);
 - start conditions (with their delays): ``SimulationTimeCondition``, ``DistanceCondition`` and
@@ -49,8 +49,8 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from regen.driving.export.xosc_data import Action, Condition, EntityDecl, Event, ParsedScenario
-from regen.driving.export.xosc_record import (
+from regen.driving.interop.xosc_data import Action, Condition, EntityDecl, Event, ParsedScenario
+from regen.driving.interop.xosc_record import (
     WITHOUT_EFFECT,
     bad,
     choice,
@@ -194,7 +194,7 @@ def _appearance(ap: ET.Element, where: str) -> Action | None:
 
 def _command(ud: ET.Element, where: str) -> Action | None:
     """A ``UserDefinedAction`` this project writes (a door, a siren, hazard lights)."""
-    from regen.driving.export.appearance import read_command
+    from regen.driving.interop.appearance import read_command
 
     cc = ud.find("CustomCommandAction")
     got = read_command(cc.get("type", ""), cc.text or "") if cc is not None else None

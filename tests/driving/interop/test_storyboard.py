@@ -22,7 +22,7 @@ CUT_IN = FEASIBLE["slow_down"][2]  # a car cuts in (offset trigger)
 def _export(path, folder, **kw):
     from regen.core.scenario import Scenario
     from regen.core.trace import Trace
-    from regen.driving.export.openscenario import export_openscenario
+    from regen.driving.interop.openscenario import export_openscenario
     from regen.pipeline.stages import run_path
 
     assert run_path(path, folder, pictures=False).verdict.feasible
@@ -83,7 +83,7 @@ LIGHT = chain("stop_abruptly", "the traffic light ahead turns red", ("traffic_li
 
 
 def test_a_light_that_turns_red_switches_the_maps_signal_on_the_egos_approach(tmp_path):
-    from regen.driving.export.signals import signals_of
+    from regen.driving.interop.signals import signals_of
     from regen.driving.world.properties import YELLOW_TIME
 
     root, sc = _export(LIGHT, tmp_path / "light")

@@ -1,4 +1,4 @@
-"""An OpenSCENARIO file as :func:`regen.driving.export.xosc_read.read_xosc` reads it, as plain
+"""An OpenSCENARIO file as :func:`regen.driving.interop.xosc_read.read_xosc` reads it, as plain
 data: its entities, where they start, their events with their actions and start conditions.
 
 Imports: nothing of the project.

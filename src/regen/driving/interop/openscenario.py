@@ -26,9 +26,9 @@ import numpy as np
 from regen.core.io import atomic_write_bytes
 from regen.core.scenario import Scenario
 from regen.core.trace import ActorTrack, Trace
-from regen.driving.export.appearance import APPEARANCE, appearance_action
-from regen.driving.export.signals import Light, with_signals
-from regen.driving.export.storyboard import as_recorded, fire_index, state_group, triggered_group
+from regen.driving.interop.appearance import APPEARANCE, appearance_action
+from regen.driving.interop.signals import Light, with_signals
+from regen.driving.interop.storyboard import as_recorded, fire_index, state_group, triggered_group
 from regen.driving.world.plan import ActorPlan
 from regen.driving.world.setting import DrivingWorld
 from regen.driving.world.triggers import Spec
@@ -279,7 +279,7 @@ def export_openscenario(scenario: Scenario, trace: Trace, out_dir: Path, *,
 
     ``sample_dt`` [s] is the spacing of trajectory vertices. An actor whose cause action starts on
     a trigger gets a storyboard event started by the matching condition on the ego
-    (:mod:`regen.driving.export.storyboard`); the others replay their recorded path on
+    (:mod:`regen.driving.interop.storyboard`); the others replay their recorded path on
     simulation time. Every actor has a Story of its own (the ego's first).
     ``include_ego=False`` leaves out the ego's own story (the ego is still
     placed), for a user who drives it with their own stack. Returns ``{"xosc": path}`` plus

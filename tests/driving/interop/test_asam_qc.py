@@ -12,7 +12,7 @@ import os
 import pytest
 from driving_chains import FEASIBLE, chain
 
-from regen.driving.export.qc import check_file, parse_result, program, qc_venv
+from regen.driving.interop.qc import check_file, parse_result, program, qc_venv
 
 pytest.importorskip("scenic")
 

@@ -114,7 +114,7 @@ def check_folder(folder: Path, *, maps_seen: set[str] | None = None) -> InteropC
     """All four checks of one scenario folder (``maps_seen``: digests of maps already checked)."""
     import hashlib
 
-    from regen.driving.export.qc import check_file
+    from regen.driving.interop.qc import check_file
 
     out = InteropCheck(folder=folder)
     files = [folder / "scenario.xosc"]

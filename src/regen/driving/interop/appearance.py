@@ -5,7 +5,7 @@ doors, sirens and hazard lights through custom commands.
 property           action
 =================  ==========================================================================
 light_state        ``TrafficSignalStateAction`` on the map's signal for the light
-                   (:mod:`regen.driving.export.signals`); a global action
+                   (:mod:`regen.driving.interop.signals`); a global action
 door               ``UserDefinedAction/CustomCommandAction type="regen:door"``, content
                    ``ENTITY=open`` or ``ENTITY=closed``
 siren              ``... type="regen:siren"``, ``ENTITY=on|off``
@@ -17,7 +17,7 @@ warning lights), but its schema requires both a light state and an animation in 
 erratum fixed in 1.3), so a file that used it would fail the 1.2 schema and the ASAM checker;
 custom commands are the standard's own way for actions it lacks (a player that does not know
 them skips them). The first state goes into ``Init``, each change into an event on the actor's
-trigger (:func:`regen.driving.export.storyboard.state_group`). Brake lights follow the motion;
+trigger (:func:`regen.driving.interop.storyboard.state_group`). Brake lights follow the motion;
 a driver's state, a sensor's signal and a camera's view stay ``Property`` entries.
 Imports: scenariogeneration's xosc (passed in).
 """

@@ -45,8 +45,8 @@ def _errors(a: Trace, b: Trace) -> dict[str, float]:
 
 
 def test_the_hand_written_file_is_schema_valid_and_imports_with_its_storyboard():
-    from regen.driving.export.importing import import_xosc
-    from regen.driving.export.openscenario import validate_xosc
+    from regen.driving.interop.importing import import_xosc
+    from regen.driving.interop.openscenario import validate_xosc
 
     assert validate_xosc(HAND) == []
     sc = import_xosc(HAND)
@@ -92,7 +92,7 @@ def test_an_exported_file_imports_back_to_the_same_verdict_and_trajectories(chai
 
 
 def test_what_it_does_not_read_is_named(tmp_path):
-    from regen.driving.export.importing import import_xosc
+    from regen.driving.interop.importing import import_xosc
 
     text = HAND.read_text()
     lane = text.replace('<WorldPosition x="-100.0" y="-8.0" z="0.0" h="1.5708"/>',

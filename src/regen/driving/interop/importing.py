@@ -34,10 +34,10 @@ import numpy as np
 
 from regen.core.behavior import Behavior
 from regen.core.scenario import FSM, AbstractState, Entity, PredicateCall, Scenario, Stage, StateRef
-from regen.driving.export.player import Played, delay_of, play
-from regen.driving.export.signals import signals_of, without_signals
-from regen.driving.export.xosc_data import Condition, EntityDecl, Event, ParsedScenario
-from regen.driving.export.xosc_read import read_xosc
+from regen.driving.interop.player import Played, delay_of, play
+from regen.driving.interop.signals import signals_of, without_signals
+from regen.driving.interop.xosc_data import Condition, EntityDecl, Event, ParsedScenario
+from regen.driving.interop.xosc_read import read_xosc
 from regen.driving.world.imported import imported_entities, with_imported
 from regen.driving.world.maps import GEOMETRIES, ensure_map
 from regen.driving.world.recorded import CLASSES, Trajectory, detect

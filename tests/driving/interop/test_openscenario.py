@@ -13,7 +13,7 @@ pytest.importorskip("xmlschema")
 from regen.core.behavior import Behavior  # noqa: E402
 from regen.core.scenario import FSM, Entity, Scenario  # noqa: E402
 from regen.core.trace import ActorTrack, Trace  # noqa: E402
-from regen.driving.export.openscenario import export_openscenario, safe_name, validate_xosc  # noqa: E402
+from regen.driving.interop.openscenario import export_openscenario, safe_name, validate_xosc  # noqa: E402
 from regen.errors import ConfigError  # noqa: E402
 
 DT = 0.1  # [s]

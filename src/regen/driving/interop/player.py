@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from regen.driving.export.xosc_data import Action, Condition, Event, ParsedScenario
+from regen.driving.interop.xosc_data import Action, Condition, Event, ParsedScenario
 from regen.driving.world.maps import LANE_WIDTH
 from regen.driving.world.triggers import MIN_SPEED, trigger_fired
 from regen.errors import ConfigError
