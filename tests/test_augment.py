@@ -92,3 +92,21 @@ def test_an_addition_is_judged_as_a_cause_of_the_behavior_and_the_judge_never_ov
     # the judge's no is recorded beside the simulation's answer, never over it
     assert added["status"].startswith("verified") and added["holds"]
     assert "no cause of the behavior" in added["reason"] and "the simulation decides" in added["reason"]
+
+
+def test_a_manipulation_scene_is_shown_a_manipulation_example(tmp_path, monkeypatch):
+    # a manipulation scene was shown a cyclist swerving into a lane as the example of an addition
+    from regen.core import Behavior, CausePath, PathEntity
+    from regen.manipulation.world.tasks import BEHAVIORS
+
+    b = BEHAVIORS["open_door"]
+    pet = CausePath(behavior=Behavior(text=b.text, domain="manipulation", params={"reward": b.id}),
+                    events=["the pet wants to go out", b.text],
+                    entities=[PathEntity(asset="pet", event="the pet wants to go out")])
+    folder = tmp_path / "run" / "scenarios" / "01-pet"
+    assert run_path(pet, folder, pictures=False).verdict.feasible
+    res, provider = _augment(monkeypatch, folder, {"add": [], "irrelevant": []}, "--out", str(tmp_path / "aug"))
+    assert res.exit_code == 0, res.output
+    prompt = provider.requests[0][-1]["content"].lower()
+    assert "a guest is about to arrive for dinner" in prompt and '(such as "pet1")' in prompt
+    assert not any(w in prompt for w in ("cyclist", "lane", "brake", "sedan"))

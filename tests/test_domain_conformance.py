@@ -96,3 +96,64 @@ def test_a_domain_defined_outside_the_toolkit_owns_its_words_and_predicates() ->
     assert get_predicate("in_aisle", "aisle").domains == ("aisle",)
     with pytest.raises(Exception, match="unknown predicate 'in_aisle' for driving"):
         get_predicate("in_aisle", "driving")
+
+
+def test_a_domain_needs_only_ground_simulate_render_and_its_words(tmp_path: Path) -> None:
+    """The optional parts are capability objects (or None) and restrictions: the aisle domain
+    defines none of them, and the commands that need one refuse it in one line."""
+    from regen.contract import DomainBackend
+    from regen.errors import ConfigError
+    from regen.pipeline.imports import backend_for, import_file
+
+    assert DomainBackend.__abstractmethods__ == {"ground", "simulate", "render"}
+    cls = domains.backend_class("aisle")
+    assert not {"importer", "recorder", "property_choices", "policy_harness"} & set(vars(cls))
+    aisle = domains.make("aisle")
+    assert aisle.importer() is None and aisle.recorder() is None and aisle.policy_harness() is None
+    assert aisle.property_choices("worker") is None
+    xosc = tmp_path / "s.xosc"
+    xosc.write_text("<OpenSCENARIO/>")
+    with pytest.raises(ConfigError, match="the aisle domain imports no files, not .xosc"):
+        backend_for(xosc, "aisle")
+    (tmp_path / "s.aisle").write_text("x")
+    with pytest.raises(ConfigError, match=r"no domain imports \.aisle files; regen import reads \.xosc$"):
+        import_file(tmp_path / "s.aisle", tmp_path / "run")  # the suffixes over every domain
+    with pytest.raises(ConfigError, match=r"no such file; give a scenario file \(\.xosc\)"):
+        import_file(tmp_path / "gone.xosc", tmp_path / "run")
+    assert backend_for(xosc).name == "driving"
+
+
+def test_a_domain_without_a_recorder_refuses_a_recorded_trajectory(tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from regen.cli import app
+
+    f = tmp_path / "ego.csv"
+    f.write_text("t,x,y\n0,0,0\n0.1,1,0\n")
+    res = CliRunner().invoke(app, ["generate", "-d", "aisle", "--ego-trajectory", str(f), "--out",
+                                   str(tmp_path / "run"), "--replay"])
+    assert res.exit_code == 2, res.output
+    assert "the aisle domain takes no recorded trajectory; give the behavior as text" in res.output
+
+
+def test_a_recorder_refuses_an_option_it_does_not_take(tmp_path: Path) -> None:
+    from regen.errors import ConfigError
+
+    recorder = domains.make("driving").recorder()
+    assert set(recorder.options) == {"map"}
+    with pytest.raises(ConfigError, match="no option 'lane'.*map: the generated map"):
+        recorder.read(tmp_path / "ego.csv", options={"lane": "2"})
+
+
+def test_property_choices_without_a_key_hold_one_entry() -> None:
+    from regen.contract import PropertyChoices
+
+    fixed = PropertyChoices.fixed({"power": ["off"]})
+    assert fixed.key is None and fixed.alternatives(None) == [{"power": ["off"]}]
+    assert fixed.dependent() == {"power"}
+    with pytest.raises(ValueError, match="one entry, under None"):
+        PropertyChoices(None, {"x": {"power": ["off"]}})
+    keyed = PropertyChoices("behavior", {"walk": [{"speed": ["slow"]}, {"speed": ["fast"], "start": ["a"]}],
+                                         "stand": {}})
+    assert keyed.alternatives("walk")[1]["start"] == ["a"] and keyed.alternatives("run") == [None]
+    assert keyed.dependent() == {"speed", "start"}

@@ -302,7 +302,7 @@ def recordings(monkeypatch) -> None:
 
     from regen.driving.backend import DrivingBackend
 
-    monkeypatch.setattr(FakeBackend, "recorded_behavior", DrivingBackend.recorded_behavior)
+    monkeypatch.setattr(FakeBackend, "recorder", DrivingBackend.recorder)
 
 
 @pytest.fixture

@@ -245,3 +245,23 @@ def test_an_added_cause_is_bound_by_the_states_and_motion_its_words_name(tmp_pat
     props = {e.asset: e.properties for e in new.entities}
     assert props["traffic_light"]["light_state"] == ["turns_red"]
     assert props["bicycle"]["behavior"] == ["change_lane"]
+
+
+def test_a_manipulation_question_is_shown_manipulation_examples(tmp_path, monkeypatch):
+    # a manipulation scene was shown brake lights and a cyclist as the worked examples
+    from regen.core import Behavior, CausePath, PathEntity
+    from regen.manipulation.world.tasks import BEHAVIORS
+
+    b = BEHAVIORS["open_door"]
+    pet = CausePath(behavior=Behavior(text=b.text, domain="manipulation", params={"reward": b.id}),
+                    events=["the pet wants to go out", b.text],
+                    entities=[PathEntity(asset="pet", event="the pet wants to go out")])
+    folder = tmp_path / "run" / "scenarios" / "01-pet"
+    assert run_path(pet, folder, pictures=False).verdict.feasible
+    provider = _queued(monkeypatch, {"edits": [{"op": "remove", "entity": "pet1"}]})
+    res = _whatif(folder, "--ask", "what if the pet were not there?", "--llm", "queued:test", "--no-pictures",
+                  "--out", str(tmp_path / "wi"))
+    assert res.exit_code == 0, res.output
+    prompt = provider.requests[0][-1]["content"].lower()
+    assert '"property": "power", "value": "off"' in prompt and "a cat waits by the door" in prompt
+    assert not any(w in prompt for w in ("brake", "cyclist", "truck", "road"))

@@ -345,10 +345,13 @@ def _behavior_to_generate(behavior: str | None, domain: str, *, template: str | 
     if trajectory is not None:
         if template:
             raise ConfigError("--ego and --ego-trajectory both say what the ego does; give one")
-        behavior, params, lines = domains.make(domain).recorded_behavior(trajectory, map_name=map_name,
-                                                                        text=behavior)
-        extra.update(params)
-        for line in lines:
+        recorder = domains.make(domain).recorder()
+        if recorder is None:
+            raise ConfigError(f"the {domain} domain takes no recorded trajectory; give the behavior as text")
+        recorded = recorder.read(trajectory, text=behavior, options={} if map_name is None else {"map": map_name})
+        behavior = recorded.text
+        extra.update(recorded.params)
+        for line in recorded.lines:
             err_console.print(shown(line))
     elif map_name is not None:
         raise ConfigError("--map says which map an --ego-trajectory file's coordinates are in; give the file too")

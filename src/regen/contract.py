@@ -12,6 +12,7 @@ runs every registered domain through the whole pipeline the way Gymnasium's ``ch
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
@@ -84,6 +85,14 @@ class Wording:
     #: words for the robot, say), on top of the shared English ones (``regen.expand.dedupe``).
     #: Lower case, one word each.
     stop_words: tuple[str, ...] = ()
+    #: what-if: worked examples shown before the user's question, as (scenario's cause,
+    #: question, the edits as JSON); in the domain's own entities and properties
+    whatif_examples: tuple[tuple[str, str, str], ...] = ()
+    #: what-if: a short cause text of the domain that names the thing it adds and what it does,
+    #: shown as the example of an added cause
+    add_example: str = ""
+    #: augment: the same, for a cause that would cause or strengthen a behavior
+    augment_example: str = ""
 
 
 @dataclass(frozen=True)
@@ -105,12 +114,113 @@ class SimulationOutput:
     files: dict[str, Path] = field(default_factory=dict)  # role -> path of a file the run wrote
 
 
+#: property -> the values it may take (with one value of :attr:`PropertyChoices.key`)
+Allowed = dict[str, list[str]]
+
+
+@dataclass(frozen=True)
+class PropertyChoices:
+    """Properties of an entity whose values the simulator restricts
+    (:meth:`DomainBackend.property_choices`). Expansion asks the model for one consistent
+    choice, so the graph never holds a combination grounding cannot honor.
+
+    Once the entity's ``key`` property (a driving actor's ``behavior``) takes a value, the other
+    properties may only take the values ``allowed`` lists for it, and a property left out does not
+    apply at all (a stationary actor has no speed). A value of ``key`` may allow a list of such
+    dicts instead: alternatives where the other properties depend on each other too (a car ahead
+    in the ego's lane, before the ego stops, is no slow one; in the next lane it may be). With
+    ``key`` None the one entry, under None, holds whatever the entity's values
+    (:meth:`fixed`): the start state of the object a manipulation task acts on, which the task
+    fixes.
+    """
+
+    key: str | None
+    allowed: dict[str | None, Allowed | list[Allowed]]
+
+    def __post_init__(self) -> None:
+        if self.key is None and list(self.allowed) != [None]:
+            raise ValueError("PropertyChoices without a key property holds one entry, under None "
+                             "(PropertyChoices.fixed)")
+
+    @classmethod
+    def fixed(cls, allowed: Allowed) -> PropertyChoices:
+        """Restrictions that hold whatever the entity's other values."""
+        return cls(None, {None: allowed})
+
+    def alternatives(self, value: str | None) -> list[Allowed | None]:
+        """The alternatives of one key value's restriction: one unless the domain gave several;
+        ``[None]`` when it restricts nothing for that value."""
+        allowed = self.allowed.get(value)
+        return list(allowed) if isinstance(allowed, list) else [allowed]
+
+    def dependent(self) -> set[str]:
+        """The properties some value of the key restricts (in any alternative)."""
+        return {p for value in self.allowed for alt in self.alternatives(value) for p in (alt or {})}
+
+
+class Importer(ABC):
+    """How ``regen import`` reads files another tool wrote into a domain's scenarios
+    (:meth:`DomainBackend.importer`)."""
+
+    #: the file suffixes it reads, lower case with the dot (``(".xosc",)``)
+    suffixes: ClassVar[tuple[str, ...]] = ()
+
+    @abstractmethod
+    def read(self, path: Path) -> Scenario:
+        """A scenario from the file (one of :attr:`suffixes`), ready to simulate: its FSM derived
+        from the file; :class:`~regen.errors.ConfigError` naming what cannot be read."""
+
+    def notes(self, scenario: Scenario) -> list[str]:
+        """What the reading of an imported scenario left out or changed, in words (``regen import``
+        prints them). Default: nothing."""
+        return []
+
+
+@dataclass(frozen=True)
+class RecordedBehavior:
+    """A behavior read from a recorded trajectory (:meth:`Recorder.read`)."""
+
+    text: str  # the text given, or the one detected
+    params: dict[str, Any]  # the behavior's parameters (``Behavior.params``)
+    lines: tuple[str, ...] = ()  # what was detected, in words (``regen generate`` prints them)
+
+
+class Recorder(ABC):
+    """How ``regen generate --ego-trajectory FILE`` reads a recorded trajectory of the robot into
+    the behavior to explain (:meth:`DomainBackend.recorder`)."""
+
+    #: The options :meth:`read` takes: name -> what it says (``--map NAME`` gives ``map``).
+    options: ClassVar[Mapping[str, str]] = {}
+
+    def check_options(self, options: Mapping[str, str]) -> None:
+        """:class:`~regen.errors.ConfigError` naming an option not in :attr:`options` and the
+        ones taken (what :meth:`read` checks first)."""
+        from regen.errors import ConfigError
+
+        for key in options:
+            if key not in self.options:
+                takes = "; ".join(f"{k}: {what}" for k, what in self.options.items()) or "none"
+                raise ConfigError(f"a recorded trajectory of this domain takes no option {key!r} "
+                                  f"(the options it takes: {takes})")
+
+    @abstractmethod
+    def read(self, path: str | Path, *, text: str | None = None,
+             options: Mapping[str, str] | None = None) -> RecordedBehavior:
+        """The behavior the recording shows: ``text`` when given, else the detected one, with its
+        parameters and what was detected in words. ``options``: :attr:`options` (refused with
+        :meth:`check_options` when unknown); :class:`~regen.errors.ConfigError` naming what is
+        wrong with the file."""
+
+
 class DomainBackend(ABC):
     """What a simulation domain provides to the pipeline.
 
     Class attributes are the domain's declarations; methods are the stages the pipeline calls
     (:mod:`regen.pipeline`), in order: ``ground`` -> ``simulate`` -> ``verify`` -> ``render`` ->
-    ``export``.
+    ``export``. Only ``ground``, ``simulate`` and ``render`` (and the declarations) are required.
+    An optional part that takes more than one method is a capability object the backend returns,
+    None when the domain has none: :meth:`policy_harness` (``regen test``), :meth:`importer`
+    (``regen import``), :meth:`recorder` (``regen generate --ego-trajectory``).
     """
 
     #: The domain's name, as users type it after ``--domain``.
@@ -153,22 +263,10 @@ class DomainBackend(ABC):
         something the domain does not have, say. Default: the parameters fit :attr:`params_model`."""
         self.params(behavior)
 
-    def property_choices(self, asset: str, behavior: Behavior | None = None
-                         ) -> tuple[str | None, dict[str | None, Any]] | None:
-        """Properties whose values the simulator restricts, or None.
-
-        ``(key, {value of key: {property: allowed values}})``: once the entity's ``key``
-        property (a driving actor's ``behavior``) takes a value, the other properties may only take
-        the values listed for it, and a property left out does not apply at all (a stationary
-        actor has no speed). With ``key`` None the one entry (under None) holds whatever the
-        entity's values: the start state of the object a manipulation task acts on, which the
-        task fixes. Expansion asks the model for one consistent choice, so the graph never holds
-        a combination grounding cannot honor. A value of ``key`` may allow a list of such
-        dicts instead, alternatives where the other properties depend on each other too (a car
-        ahead in the ego's lane, before the ego stops, is no slow one; in the next lane it may
-        be). ``behavior``: the behavior being explained.
-        Default: no restrictions.
-        """
+    def property_choices(self, asset: str, behavior: Behavior | None = None) -> PropertyChoices | None:
+        """The properties of ``asset`` whose values the simulator restricts
+        (:class:`PropertyChoices`), or None. ``behavior``: the behavior being explained.
+        Default: no restrictions."""
         return None
 
     def own_objects(self, behavior: Behavior) -> frozenset[str]:
@@ -181,28 +279,15 @@ class DomainBackend(ABC):
         """Behavior fields that change results in this domain (recorded and compared on resume)."""
         return {}
 
-    def recorded_behavior(self, path: str, *, map_name: str | None = None, text: str | None = None
-                          ) -> tuple[str, dict[str, Any], list[str]]:
-        """A behavior from a recorded trajectory file: (its text: ``text`` or the detected one,
-        its parameters, what was detected in words). Default: this domain takes none."""
-        from regen.errors import ConfigError
+    def recorder(self) -> Recorder | None:
+        """How ``regen generate --ego-trajectory`` reads a recorded trajectory of the robot
+        (:class:`Recorder`); None: the domain takes none (give the behavior as text)."""
+        return None
 
-        raise ConfigError(f"the {self.name} domain takes no recorded trajectory; give the behavior as text")
-
-    #: file suffixes ``regen import`` reads into this domain's scenarios (e.g. ``(".xosc",)``)
-    import_suffixes: tuple[str, ...] = ()
-
-    def import_scenario(self, path: Path) -> Scenario:
-        """A scenario from a file another tool wrote (a suffix of :attr:`import_suffixes`),
-        ready to simulate: its FSM derived from the file. Default: this domain imports none."""
-        from regen.errors import ConfigError
-
-        raise ConfigError(f"the {self.name} domain imports no scenario files")
-
-    def import_notes(self, scenario: Scenario) -> list[str]:
-        """What an imported scenario's reading left out or changed, in words (``regen import``
-        prints them). Default: nothing."""
-        return []
+    def importer(self) -> Importer | None:
+        """How ``regen import`` reads files another tool wrote into this domain's scenarios
+        (:class:`Importer`); None: the domain imports none."""
+        return None
 
     @abstractmethod
     def ground(self, path: CausePath, llm: LLM | None, *, seed: int = 0) -> Scenario:
@@ -255,5 +340,5 @@ class DomainBackend(ABC):
                 "fsm": scenario.fsm.as_tuples()}
 
 
-__all__ = ["ANIMATION", "KEYFRAMES", "ROBOT_ORDERS", "DomainBackend", "ReportHints", "SimulationOutput",
-           "Wording"]
+__all__ = ["ANIMATION", "KEYFRAMES", "ROBOT_ORDERS", "Allowed", "DomainBackend", "Importer", "PropertyChoices",
+           "RecordedBehavior", "Recorder", "ReportHints", "SimulationOutput", "Wording"]

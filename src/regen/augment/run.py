@@ -9,12 +9,14 @@ from typing import TYPE_CHECKING
 
 from pydantic import Field
 
+from regen import domains
 from regen.core.base import Answer, Model
 from regen.core.scenario import Scenario
 from regen.errors import ConfigError, RegenError
-from regen.whatif import Edit, cast_of, judge_root, run_whatif
+from regen.whatif import Edit, context_of, judge_root, run_whatif
 
 if TYPE_CHECKING:
+    from regen.assets.database import AssetDatabase
     from regen.llm import LLM
 
 
@@ -52,24 +54,25 @@ class Augmentation(Model):
     irrelevant: list[Tried] = Field(default_factory=list)
 
 
-def cast_lines(scenario: Scenario) -> list[str]:
-    """The scenario's cast (:func:`regen.whatif.cast_of`) for the prompt, one line each."""
+def cast_lines(scenario: Scenario, db: AssetDatabase) -> list[str]:
+    """The cast a proposal may change (:func:`regen.whatif.context_of`) for the prompt, one line each."""
     out = []
-    for e in cast_of(scenario):
+    for e in context_of(scenario, db):
         props = ", ".join(f"{k} = {v}" for k, v in e.properties.items())
         out.append(f"- {e.name}: a {e.asset.replace('_', ' ')}, {e.behavior or 'stationary'}"
                    + (f" ({props})" if props else ""))
     return out
 
 
-def propose(scenario: Scenario, llm: LLM, assets: list[str]) -> tuple[Proposal, str | None]:
+def propose(scenario: Scenario, llm: LLM, db: AssetDatabase) -> tuple[Proposal, str | None]:
     """The model's proposal for ``scenario`` (validated: at most :data:`MAX_ADD` additions)."""
     from regen.templates import render
 
     prompt = render("regen.augment", "propose", behavior=scenario.behavior.text,
-                    cause=scenario.causal_graph[0], cast="\n".join(cast_lines(scenario)),
-                    assets=", ".join(a.replace("_", " ") for a in assets), max_add=MAX_ADD,
-                    first_name=next((e.name for e in cast_of(scenario)), "sedan1"))
+                    cause=scenario.causal_graph[0], cast="\n".join(cast_lines(scenario, db)),
+                    assets=", ".join(a.replace("_", " ") for a in db.entities()), max_add=MAX_ADD,
+                    first_name=next((e.name for e in context_of(scenario, db)), ""),
+                    add_example=domains.backend_class(scenario.domain).wording.augment_example)
     got = llm.ask(prompt, Proposal, purpose="augment")
     p = got.value
     adds = list(dict.fromkeys(" ".join(t.split()) for t in p.add if t.strip()))[:MAX_ADD]
@@ -94,8 +97,8 @@ def run_augment(scenario_dir: str | Path, out: str | Path, llm: LLM, *, judge: L
     scenario = got.value
     backend = domains.make(scenario.domain)
     db = backend.database()
-    proposal, call_id = propose(scenario, llm, db.entities())
-    present = {e.name for e in cast_of(scenario)}
+    proposal, call_id = propose(scenario, llm, db)
+    present = {e.name for e in context_of(scenario, db)}
     record = Augmentation(original=str(src.path), behavior=scenario.behavior.text, call_id=call_id,
                           dropped=[n for n in proposal.irrelevant if n not in present])
     whatifs = Path(whatif_root) if whatif_root is not None else Path(out)

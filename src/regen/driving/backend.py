@@ -9,10 +9,20 @@ frames) and ``export`` (the .scenic program and an OpenSCENARIO replay). The pip
 from __future__ import annotations
 
 import logging
+from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
-from regen.contract import DomainBackend, ReportHints, SimulationOutput, Wording
+from regen.contract import (
+    DomainBackend,
+    Importer,
+    PropertyChoices,
+    RecordedBehavior,
+    Recorder,
+    ReportHints,
+    SimulationOutput,
+    Wording,
+)
 from regen.core.behavior import Behavior
 from regen.core.graph import CausePath
 from regen.core.scenario import Scenario
@@ -60,6 +70,44 @@ _WAITS = (r"\b(?:stops?|stopped|stopping|brakes?|braked|braking|halts?|halted|sl
 _GO_SIGNAL = (r"\bturn(?:s|ed|ing)?\s+green\b"
               r"|\b(?:road|lane|way|path|junction|intersection|crossing|crosswalk)\s+(?:is\s+|was\s+|became\s+)?"
               r"(?:clear|cleared|free|empty|open|opened|reopened)\b")
+
+
+class XoscImporter(Importer):
+    """OpenSCENARIO 1.x files (:mod:`regen.driving.interop.importing`, imported when one is read)."""
+
+    suffixes = (".xosc",)
+
+    def read(self, path: Path) -> Scenario:
+        from regen.driving.interop.importing import import_xosc
+
+        return import_xosc(path)
+
+    def notes(self, scenario: Scenario) -> list[str]:
+        imported = scenario.behavior.params.get("imported") or {}
+        return [str(n) for n in imported.get("notes", [])]
+
+
+class EgoRecorder(Recorder):
+    """A recorded ego trajectory (CSV): the behavior it shows, which the ego replays in every
+    scenario (:mod:`regen.driving.world.replay`)."""
+
+    options = {"map": "the generated map whose coordinates the file is in (straight, four_way, t_junction); "
+                      "default: the ego's start frame"}
+
+    def read(self, path: str | Path, *, text: str | None = None,
+             options: Mapping[str, str] | None = None) -> RecordedBehavior:
+        from regen.driving.world.replay import recording
+
+        options = options or {}
+        self.check_options(options)
+        rec, det = recording(path, map_name=options.get("map"))
+        lines = [f"detected: {det.text} (its event at {rec.event_time:.1f} s; {'; '.join(det.evidence)})",
+                 f"placed: {rec.placement}"]
+        if text and det.template != _matched(text):
+            lines.append(f"note: the text given names another behavior than the one detected; the ego "
+                         f"replays the recording and its states are those of '{det.text}'")
+        params = {"ego_template": det.template, "recorded": rec.model_dump(mode="json")}
+        return RecordedBehavior(text=text or det.text, params=params, lines=tuple(lines))
 
 
 class DrivingBackend(DomainBackend):
@@ -126,6 +174,13 @@ class DrivingBackend(DomainBackend):
         ),
         # the ego's own words carry no meaning when telling causes apart
         stop_words=("ego", "vehicle"),
+        whatif_examples=(
+            ("a truck brakes ahead", "what if the truck's brake lights did not work?",
+             '[{"op": "set", "entity": "truck1", "property": "brake_lights", "value": "broken"}]'),
+            ("a dog runs across the road", "what if there were no dog?", '[{"op": "remove", "entity": "dog1"}]'),
+        ),
+        add_example="a cyclist rides ahead",
+        augment_example="a cyclist swerves into the lane ahead",
         one_part_per_category=("vehicles", "pedestrians"),
     )
     report_hints = ReportHints(animation="bird's-eye animation of the run",
@@ -139,20 +194,9 @@ class DrivingBackend(DomainBackend):
                               f"(one of: {', '.join(EGO_TEMPLATES)})")
         ego_template(behavior.text, self.params(behavior))
 
-    def recorded_behavior(self, path: str, *, map_name: str | None = None, text: str | None = None
-                          ) -> tuple[str, dict[str, Any], list[str]]:
-        """The behavior a recorded ego trajectory shows; the ego replays it in every scenario
-        (:mod:`regen.driving.world.replay`)."""
-        from regen.driving.world.replay import recording
-
-        rec, det = recording(path, map_name=map_name)
-        lines = [f"detected: {det.text} (its event at {rec.event_time:.1f} s; {'; '.join(det.evidence)})",
-                 f"placed: {rec.placement}"]
-        if text and det.template != _matched(text):
-            lines.append(f"note: the text given names another behavior than the one detected; the ego "
-                         f"replays the recording and its states are those of '{det.text}'")
-        params = {"ego_template": det.template, "recorded": rec.model_dump(mode="json")}
-        return text or det.text, params, lines
+    def recorder(self) -> EgoRecorder:
+        """A recorded ego trajectory as the behavior (``--ego-trajectory``, ``--map``)."""
+        return EgoRecorder()
 
     def params(self, behavior: Behavior) -> DrivingParams:
         return DrivingParams.of(behavior)
@@ -167,8 +211,7 @@ class DrivingBackend(DomainBackend):
             key["recorded"] = hashlib.sha256(json.dumps(params.recorded.samples).encode()).hexdigest()[:16]
         return key
 
-    def property_choices(self, asset: str, behavior: Behavior | None = None
-                         ) -> tuple[str | None, dict[str | None, dict[str, list[str]]]] | None:
+    def property_choices(self, asset: str, behavior: Behavior | None = None) -> PropertyChoices | None:
         """An actor's start locations and speed classes follow its behavior (motion primitive):
         only the starts the primitive supports and some map of the ego's template can host
         (no junction place for an ego that changes lanes on a straight road), and no speed for
@@ -185,7 +228,7 @@ class DrivingBackend(DomainBackend):
             # ego perceives (a GPS 'nominal' or a camera 'clear' explains nothing)
             from regen.driving.world.sensing import EFFECTS
             faults = {p: list(EFFECTS[p]) for p in db.parameters_of(asset) if p in EFFECTS}
-            return (None, {None: faults}) if faults else None
+            return PropertyChoices.fixed(faults) if faults else None
         if asset not in db.assets or is_state_only(asset) or not db.assets[asset].behaviors:
             return None
         starts = db.property_candidates(asset, "start_location") or []
@@ -223,7 +266,7 @@ class DrivingBackend(DomainBackend):
                 allowed["target_speed"] = list(next(iter(by_speeds)))
             out[b] = (allowed if len(by_speeds) < 2 else
                       [{**allowed, "start_location": xs, "target_speed": list(sp)} for sp, xs in by_speeds.items()])
-        return ("behavior", out) if out else None
+        return PropertyChoices("behavior", out) if out else None
 
     def ground(self, path: CausePath, llm: LLM | None, *, seed: int = 0) -> Scenario:
         """Model grounding when an LLM is given (rules replace what its answers leave unusable,
@@ -243,17 +286,9 @@ class DrivingBackend(DomainBackend):
             scenario = scenario.model_copy(update={"fallbacks": [*notes, *scenario.fallbacks]})
         return scenario
 
-    import_suffixes = (".xosc",)
-
-    def import_scenario(self, path: Path) -> Scenario:
-        """An OpenSCENARIO 1.x file (:mod:`regen.driving.interop.importing`)."""
-        from regen.driving.interop.importing import import_xosc
-
-        return import_xosc(path)
-
-    def import_notes(self, scenario: Scenario) -> list[str]:
-        imported = scenario.behavior.params.get("imported") or {}
-        return [str(n) for n in imported.get("notes", [])]
+    def importer(self) -> XoscImporter:
+        """OpenSCENARIO files (``regen import``)."""
+        return XoscImporter()
 
     def simulate(self, scenario: Scenario, workdir: Path) -> SimulationOutput:
         from regen.driving.simulation.scenario import simulate_scenario

@@ -1,36 +1,24 @@
 """The schema of a property choice: one value per property, consistent with the key property
-(a behavior's start locations and speeds), and whether a role sentence says anything.
+(a behavior's start locations and speeds; the domain's
+:class:`~regen.contract.PropertyChoices`), and whether a role sentence says anything.
 
-Imports: the shared core only.
+Imports: the shared core only (the contract's types for annotations).
 """
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import create_model
 
 from regen.core.base import Answer
 from regen.core.words import name_words
 
-Allowed = dict[str, list[str]]  # property -> the values allowed with one key value
-#: DomainBackend.property_choices: (key property, key value -> what it allows). A list of
-#: alternatives where the allowed values depend on each other too (a lead car ahead of an ego
-#: that stops drives at least as fast as the ego; the same car in the next lane may be slow)
-Choices = tuple[str | None, dict[str | None, Allowed | list[Allowed]]]
+if TYPE_CHECKING:
+    from regen.contract import PropertyChoices
 
 
-def alternatives(allowed: Allowed | list[Allowed] | None) -> list[Allowed | None]:
-    """The alternatives of one key value's restriction (one, unless the domain gave several)."""
-    return list(allowed) if isinstance(allowed, list) else [allowed]
-
-
-def dependent(per: dict[str | None, Allowed | list[Allowed]]) -> set[str]:
-    """The properties some value of the key property restricts (in any alternative)."""
-    return {p for allowed in per.values() for alt in alternatives(allowed) for p in (alt or {})}
-
-
-def choice_models(options: dict[str, tuple[str, list[str]]], choices: Choices | None) -> list[Any]:
+def choice_models(options: dict[str, tuple[str, list[str]]], choices: PropertyChoices | None) -> list[Any]:
     """One pydantic model per consistent combination family: the key property fixed to one value,
     the properties that depend on it restricted to (or, when absent, without) their allowed
     values; independent properties free. Without dependencies, one model."""
@@ -39,17 +27,17 @@ def choice_models(options: dict[str, tuple[str, list[str]]], choices: Choices | 
         return create_model(name, __base__=Answer, **fields)
 
     free = {p: list(v) for p, (_, v) in options.items()}
-    if choices is not None and choices[0] is None:  # restrictions whatever the other values
-        only = alternatives(choices[1][None])[0] or {}
+    if choices is not None and choices.key is None:  # restrictions whatever the other values
+        only = choices.alternatives(None)[0] or {}
         fixed = {p: [v for v in vals if v in only.get(p, vals)] or vals for p, vals in free.items()}
         return [model("Values", fixed)]
-    if choices is None or choices[0] not in options:
+    if choices is None or choices.key not in options:
         return [model("Values", free)]
-    key, per = choices
-    restricted = dependent(per)
+    key = choices.key
+    restricted = choices.dependent()
     out = []
     for value in options[key][1]:
-        alts = alternatives(per.get(value))
+        alts = choices.alternatives(value)
         kept = 0
         for i, allowed in enumerate(alts):
             fixed: dict[str, list[str]] = {key: [value]}

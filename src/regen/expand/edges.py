@@ -19,14 +19,13 @@ from regen.embeddings import optional_encoder
 from regen.errors import ConfigError
 from regen.expand.answers import EdgeVerdict, EntitySelection, EventProposal, YesNo
 from regen.expand.calibration import ANSWER_PREFIX, threshold_for
-from regen.expand.choices import Choices
 from regen.expand.dedupe import normalize, similar
 from regen.expand.rules import happens_elsewhere, opposite_of
 from regen.llm.client import LLM
 from regen.templates import render
 
 if TYPE_CHECKING:
-    from regen.contract import DomainBackend, Wording
+    from regen.contract import DomainBackend, PropertyChoices, Wording
 
 PKG = "regen.expand"
 
@@ -96,7 +95,7 @@ class DomainView:
     def database(self) -> AssetDatabase:
         return self.backend.database()
 
-    def property_choices(self, asset: str, behavior: Behavior | None = None) -> Choices | None:
+    def property_choices(self, asset: str, behavior: Behavior | None = None) -> PropertyChoices | None:
         return self.backend.property_choices(asset, behavior)
 
     def own_objects(self, behavior: Behavior | None) -> frozenset[str]:

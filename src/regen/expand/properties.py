@@ -7,16 +7,19 @@ one consistent value per property, after a sentence on the entity's role.
 
 from __future__ import annotations
 
-from typing import Any, Union, get_args
+from typing import TYPE_CHECKING, Any, Union, get_args
 
 from pydantic import Field, create_model
 
 from regen.assets.database import AssetDatabase
 from regen.core.base import Answer
 from regen.core.words import has_phrase, lowered, name_words
-from regen.expand.choices import Choices, alternatives, choice_models, dependent, only_names
+from regen.expand.choices import choice_models, only_names
 from regen.expand.edges import Domain, Judged, domain_view, render_prompt
 from regen.llm.client import LLM
+
+if TYPE_CHECKING:
+    from regen.contract import PropertyChoices
 
 
 def propose_values(llm: LLM, domain: Domain, chain: list[str], event: str, entity: str,
@@ -112,7 +115,7 @@ def named_states(db: AssetDatabase, asset: str, event: str, options: dict[str, t
 
 def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, entity: str,
                       options: dict[str, tuple[str, list[str]]],
-                      choices: Choices | None = None,
+                      choices: PropertyChoices | None = None,
                       named: dict[str, tuple[str, str]] | None = None) -> tuple[dict[str, Judged], str]:
     """For each property (name -> (description, candidate values)) the one value that supports
     the entity's role: the graph's binding choice, so exactly one per property that applies.
@@ -141,11 +144,11 @@ def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, en
     choice_type = variants[0] if len(variants) == 1 else Union[tuple(variants)]  # noqa: UP007
     schema = create_model("PropertyValues", __base__=Answer, role=(str, ...), choice=(choice_type, ...))
     rules = []
-    if choices is not None and choices[0] is not None and len(variants) > 1:
-        key, per = choices
-        restricted = dependent(per)
-        for value, allowed in per.items():
-            for alt in alternatives(allowed):
+    if choices is not None and choices.key is not None and len(variants) > 1:
+        key = choices.key
+        restricted = choices.dependent()
+        for value in choices.allowed:
+            for alt in choices.alternatives(value):
                 if value in options[key][1] and alt is not None:
                     parts = [f"{p} one of {' | '.join(v)}" for p, v in alt.items()]
                     parts += [f"no {p}" for p in sorted(restricted) if p not in alt and p in options]
@@ -155,7 +158,7 @@ def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, en
     def ask(retry: str | None):
         prompt = render_prompt("property_edges", domain, chain=chain, event=event, entity=entity,
                                properties=[(p, d, v) for p, (d, v) in options.items()],
-                               key=choices[0] if rules else None, rules=rules, robot=domain.robot,
+                               key=choices.key if rules else None, rules=rules, robot=domain.robot,
                                retry=retry)
         prompt += ': {"role": "<what it does>", "choice": {' + example + "}}"
         return llm.ask(prompt, schema, purpose="property_edges", system=domain.system)
@@ -166,7 +169,7 @@ def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, en
         got = ask(role)
         role = " ".join(got.value.role.split())
     picked = got.value.choice.model_dump()
-    key = choices[0] if choices else None
+    key = choices.key if choices is not None else None
     out: dict[str, Judged] = {}
     for p, (_, values) in options.items():
         j = Judged(call_id=got.call_id)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from regen.contract import DomainBackend, ReportHints, SimulationOutput, Wording
+from regen.contract import DomainBackend, PropertyChoices, ReportHints, SimulationOutput, Wording
 from regen.core.behavior import Behavior
 from regen.core.graph import CausePath
 from regen.core.scenario import Scenario
@@ -39,6 +39,14 @@ class ManipulationBackend(DomainBackend):
                     "own command, instruction, programming, sensors or mechanics."),
         value_hint='relative to the robot, the table or furniture, e.g. "on the table left of the robot"',
         robot_names=("robot", "the robot arm", "the arm", "robot's gripper"),
+        whatif_examples=(
+            ("the desk lamp is left on", "what if the lamp had been switched off?",
+             '[{"op": "set", "entity": "desk_lamp1", "property": "power", "value": "off"}]'),
+            ("a child needs to go outside", "what if the child were not there?",
+             '[{"op": "remove", "entity": "child1"}]'),
+        ),
+        add_example="a cat waits by the door to go out",
+        augment_example="a guest is about to arrive for dinner",
         entity_examples=(
             ("a guest is coming over for tea", "adult", "yes"),
             ("a guest is coming over for tea", "trash_can", "no"),
@@ -90,8 +98,7 @@ class ManipulationBackend(DomainBackend):
     def params(self, behavior: Behavior) -> ManipulationParams:
         return ManipulationParams.of(behavior)
 
-    def property_choices(self, asset: str, behavior: Behavior | None = None
-                         ) -> tuple[str | None, dict[str | None, dict[str, list[str]]]] | None:
+    def property_choices(self, asset: str, behavior: Behavior | None = None) -> PropertyChoices | None:
         """The object the task acts on starts as the task needs it: a lamp to switch on is off,
         a door to open is closed (its start fraction); the model does not choose that. A kind
         of that object (a desk lamp for the lamp) is taken for it too: the graph picks one for
@@ -111,7 +118,7 @@ class ManipulationBackend(DomainBackend):
             fixed["articulation"] = ["closed" if f < 0.1 else "open" if f > 0.9 else "half_open"]
         if "power" in db.parameters_of(asset):
             fixed["power"] = ["on" if task.start_fraction > 0.5 else "off"]
-        return (None, {None: fixed}) if fixed else None
+        return PropertyChoices.fixed(fixed) if fixed else None
 
     def own_objects(self, behavior: Behavior) -> frozenset[str]:
         """The furniture the task acts on and the item it moves (a door, the cup it stores)."""

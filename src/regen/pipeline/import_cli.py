@@ -42,6 +42,7 @@ def import_command(
     scenario = result.outcomes[0].scenario()
     if scenario is not None:  # the file's own text: shown escaped, on one line each
         console.print(f"[bold]{shown(scenario.narrative)}[/]")
-        for note in domains.make(scenario.domain).import_notes(scenario):
+        importer = domains.make(scenario.domain).importer()
+        for note in importer.notes(scenario) if importer is not None else []:
             console.print(f"  note: {shown(note)}")
     print_outcomes(console, result.outcomes, out_dir, indent="")

@@ -1,7 +1,7 @@
 """``regen import``: a scenario file another tool wrote, run through the main job's own stages.
 
 The domain that reads the file's suffix turns it into a scenario
-(:meth:`~regen.contract.DomainBackend.import_scenario`); it is written into a run folder like a
+(its :meth:`~regen.contract.DomainBackend.importer`); it is written into a run folder like a
 grounded one and then simulated, verified, drawn and exported by :func:`simulate_stage`, and the
 run's summary and report are written as ``regen generate`` writes them. A rerun resumes: a
 scenario folder whose verdict is on disk and that was made from the same file is kept.
@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from regen import domains
-from regen.contract import DomainBackend
+from regen.contract import DomainBackend, Importer
 from regen.core.graph import CausePath
 from regen.core.verdict import Verdict
 from regen.errors import ConfigError
@@ -27,21 +27,39 @@ from regen.runfolder import RunFolder, RunSettings
 from regen.runfolder.manifest import now
 
 
+def _suffixes(backend: DomainBackend) -> tuple[str, ...]:
+    """The file suffixes the domain imports (none without an importer)."""
+    importer = backend.importer()
+    return importer.suffixes if importer is not None else ()
+
+
+def _known_suffixes() -> list[str]:
+    """The file suffixes some registered domain imports, sorted."""
+    return sorted({s for n in domains.names() for s in _suffixes(domains.make(n))})
+
+
+def _importer_of(backend: DomainBackend) -> Importer:
+    """The domain's importer; ConfigError when it imports no files."""
+    importer = backend.importer()
+    if importer is None:
+        raise ConfigError(f"the {backend.name} domain imports no scenario files")
+    return importer
+
+
 def backend_for(file: Path, domain: str | None = None) -> DomainBackend:
     """The domain that imports ``file``: ``domain``, else the one whose suffixes include its suffix."""
     if domain is not None:
         backend = domains.make(domain)
-        if file.suffix.lower() not in backend.import_suffixes:
-            raise ConfigError(f"the {domain} domain imports {', '.join(backend.import_suffixes) or 'no files'}, "
+        if file.suffix.lower() not in _suffixes(backend):
+            raise ConfigError(f"the {domain} domain imports {', '.join(_suffixes(backend)) or 'no files'}, "
                               f"not {file.suffix or 'files without a suffix'}")
         return backend
     for name in domains.names():
         backend = domains.make(name)
-        if file.suffix.lower() in backend.import_suffixes:
+        if file.suffix.lower() in _suffixes(backend):
             return backend
-    known = sorted({s for n in domains.names() for s in domains.make(n).import_suffixes})
     raise ConfigError(f"{file.name}: no domain imports {file.suffix or 'files without a suffix'} files; "
-                      f"regen import reads {', '.join(known)}")
+                      f"regen import reads {', '.join(_known_suffixes())}")
 
 
 def import_file(file: str | Path, out: str | Path, *, domain: str | None = None, pictures: bool = True,
@@ -50,7 +68,7 @@ def import_file(file: str | Path, out: str | Path, *, domain: str | None = None,
     docstring)."""
     file = Path(file)
     if not file.is_file():
-        raise ConfigError(f"{file}: {'a folder, not a file' if file.is_dir() else 'no such file'}; give a scenario file ({', '.join(sorted({s for n in domains.names() for s in domains.make(n).import_suffixes}))})")
+        raise ConfigError(f"{file}: {'a folder, not a file' if file.is_dir() else 'no such file'}; give a scenario file ({', '.join(_known_suffixes())})")
     backend = backend_for(file, domain)
     started = time.perf_counter()
 
@@ -59,7 +77,7 @@ def import_file(file: str | Path, out: str | Path, *, domain: str | None = None,
             on_event({"t": round(time.perf_counter() - started, 3), "event": kind, **data})
 
     emit("stage", stage="import")
-    scenario = backend.import_scenario(file)
+    scenario = _importer_of(backend).read(file)
     settings = RunSettings(llm="none", max_scenarios=1, pictures=pictures)
     run = RunFolder(out)
     digest = hashlib.sha256(file.read_bytes()).hexdigest()[:16]  # another file's run is not resumed

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import Field
 
+from regen import domains
 from regen.core.base import Answer, Model
 from regen.errors import ConfigError
 
@@ -59,6 +60,14 @@ def parse_set(text: str) -> Edit:
 def cast_of(scenario: Scenario) -> list[Any]:
     """The scenario's cast: its entities but the robot, in order."""
     return [e for e in scenario.entities if not e.is_robot]
+
+
+def context_of(scenario: Scenario, db: AssetDatabase) -> list[Any]:
+    """The cast a question or a proposal may change: its entities but the robot, the objects of
+    the robot's own task (the door it opens) and fixtures the database does not hold (the table
+    the scene stands on), in order."""
+    own = domains.make(scenario.domain).own_objects(scenario.behavior)
+    return [e for e in cast_of(scenario) if e.asset in db.assets and e.asset not in own]
 
 
 def _actual(entity: Any) -> dict[str, str]:
@@ -134,11 +143,13 @@ def apply_edits(scenario: Scenario, path: CausePath, edits: list[Edit], db: Asse
         else:
             text = (edit.text or "").strip()
             if not text:
-                raise ConfigError("--add needs a cause text, e.g. --add 'a cyclist rides ahead'")
+                example = domains.backend_class(scenario.domain).wording.add_example
+                raise ConfigError("--add needs a cause text" + (f", e.g. --add '{example}'" if example else ""))
             named = db.named_assets(text, robot=robot)
             if not named:
+                some = ", ".join(f"'a {a.replace('_', ' ')}'" for a in list(db.assets)[:3])
                 raise ConfigError(f"add cause '{text}': its words name no asset of the {db.name} database; "
-                                  "name one (e.g. 'a truck', 'a pedestrian')")
+                                  f"name one (e.g. {some}; `regen assets {scenario.domain}` lists them)")
             events.insert(0, text)
             # the states and motion its words name bind it, as they bind a graph's entity
             # ("a traffic light turns red": light_state = turns_red)
@@ -174,16 +185,18 @@ def ask_edits(scenario: Scenario, question: str, llm: LLM, db: AssetDatabase) ->
     from regen.templates import render
 
     cast = []
-    for e in cast_of(scenario):
+    for e in context_of(scenario, db):
         values = {p: db.property_candidates(e.asset, p) for p in db.parameters_of(e.asset)
                   if p in db.properties or p == "behavior"}
         have = _actual(e)
         cast.append({"name": e.name, "asset": e.asset,
                      "properties": {p: {"now": have.get(p), "values": v} for p, v in values.items() if v}})
+    wording = domains.backend_class(scenario.domain).wording
     prompt = render("regen.whatif", "ask", question=question, cause=scenario.causal_graph[0],
-                    cast=json.dumps(cast, indent=1))
+                    cast=json.dumps(cast, indent=1), examples=wording.whatif_examples,
+                    add_example=wording.add_example)
     got = llm.ask(prompt, Edits, purpose="whatif")
     return list(got.value.edits)
 
 
-__all__ = ["Edit", "Edits", "apply_edits", "ask_edits", "cast_of", "parse_set"]
+__all__ = ["Edit", "Edits", "apply_edits", "ask_edits", "cast_of", "context_of", "parse_set"]

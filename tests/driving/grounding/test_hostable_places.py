@@ -11,11 +11,11 @@ from regen.driving.world.egos import template_for
 
 def _starts(ego: str, asset: str = "ambulance") -> dict[str, list[str]]:
     backend = domains.make("driving")
-    prop, choices = backend.property_choices(asset, Behavior(text="x", domain="driving",
-                                                              params={"ego_template": ego}))
-    assert prop == "behavior"
-    return {b: sorted({x for alt in (allowed if isinstance(allowed, list) else [allowed])
-                       for x in alt["start_location"]}) for b, allowed in choices.items()}
+    choices = backend.property_choices(asset, Behavior(text="x", domain="driving",
+                                                       params={"ego_template": ego}))
+    assert choices.key == "behavior"
+    return {b: sorted({x for alt in choices.alternatives(b) for x in alt["start_location"]})
+            for b in choices.allowed}
 
 
 def test_an_ego_changing_lanes_on_a_straight_road_is_offered_no_junction_place() -> None:
@@ -36,15 +36,16 @@ def test_can_host_follows_the_map_rules() -> None:
 def test_a_lead_car_ahead_of_an_ego_that_stops_is_offered_no_speed_the_solver_cannot_place() -> None:
     """'the front car with broken brake lights stops' was chosen slow ahead of an ego at 10 m/s:
     unsatisfiable. The (start, speed) pairs offered are the ones the placement model solves."""
+    from regen.contract import PropertyChoices
     from regen.driving.grounding.placement import solve
     from regen.driving.world.actors import ActorSpec
     from regen.driving.world.egos import template_for
     from regen.expand.choices import choice_models
 
     backend = domains.make("driving")
-    _, choices = backend.property_choices("sedan", Behavior(text="x", domain="driving",
-                                                            params={"ego_template": "stop_abruptly"}))
-    alts = choices["drive_forward"]
+    choices = backend.property_choices("sedan", Behavior(text="x", domain="driving",
+                                                         params={"ego_template": "stop_abruptly"}))
+    alts = choices.allowed["drive_forward"]
     assert isinstance(alts, list)
     speeds = {x: alt["target_speed"] for alt in alts for x in alt["start_location"]}
     assert "slow" not in speeds["ahead_same_lane"] and "slow" in speeds["ahead_adjacent_lane"]
@@ -57,7 +58,7 @@ def test_a_lead_car_ahead_of_an_ego_that_stops_is_offered_no_speed_the_solver_ca
     options = {"behavior": ("", ["drive_forward"]), "start_location": ("", ["ahead_same_lane"]),
                "target_speed": ("", ["slow", "moderate", "fast"])}
     allowed = set()
-    for model in choice_models(options, ("behavior", {"drive_forward": alts})):
+    for model in choice_models(options, PropertyChoices("behavior", {"drive_forward": alts})):
         for sp in ("slow", "moderate", "fast"):
             try:
                 model(behavior="drive_forward", start_location="ahead_same_lane", target_speed=sp)
@@ -73,9 +74,9 @@ def test_a_motion_from_one_start_is_offered_only_the_speeds_the_solver_can_place
     backend = domains.make("driving")
 
     def speeds(ego: str, asset: str, motion: str) -> list[str]:
-        _, choices = backend.property_choices(asset, Behavior(text="x", domain="driving",
-                                                               params={"ego_template": ego}))
-        return choices[motion]["target_speed"]
+        choices = backend.property_choices(asset, Behavior(text="x", domain="driving",
+                                                            params={"ego_template": ego}))
+        return choices.allowed[motion]["target_speed"]
 
     assert speeds("stop_abruptly", "truck", "brake_ahead") == ["moderate", "fast"]
     assert speeds("slow_down", "sedan", "cut_in") == ["fast"]  # it overtakes an ego at 12 m/s

@@ -38,9 +38,9 @@ def test_a_bicycle_rides_across_where_pedestrians_walk(ground):
 def test_the_backend_offers_the_crossing_starts_to_a_bicycle():
     from regen.driving.backend import DrivingBackend
 
-    prop, by_behavior = DrivingBackend().property_choices("bicycle")
-    assert prop == "behavior"
-    assert by_behavior["cross_the_road"]["start_location"] == ["roadside_ahead", "roadside_opposite_ahead",
+    choices = DrivingBackend().property_choices("bicycle")
+    assert choices.key == "behavior"
+    assert choices.allowed["cross_the_road"]["start_location"] == ["roadside_ahead", "roadside_opposite_ahead",
                                                                "crosswalk_ahead"]
 
 
