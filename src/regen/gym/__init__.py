@@ -5,7 +5,7 @@ Importing this package registers the envs every registered domain declares
 ``gymnasium.make("regen/Driving-v0", runs=["runs/demo"])`` or
 ``gymnasium.make("regen/Manipulation-v0", runs=["runs/door"])`` works; without importing it,
 ``gymnasium.make("regen.gym:regen/Driving-v0", runs=[...])`` imports it on the fly (Gymnasium 1.x
-loads no plugins by entry point). Needs the ``gym`` extra: ``pip install 'regen-sim[gym]'``.
+loads no plugins by entry point). Needs the ``gym`` extra: ``pip install -e '.[gym]'`` in the checkout.
 Env classes are imported on first use; ``from regen.gym import <EnvClass>`` imports one by its
 class name.
 """

