@@ -3,7 +3,8 @@
 File format (JSON), mirroring the paper's ``node[...] = [...]`` graph with typed sections:
 
 - ``categories``: category -> asset ids (``node["vehicles"] = ["sedan", ...]``)
-- ``assets``: asset id -> kind, description, size [m], CARLA blueprint, its properties and the
+- ``assets``: asset id -> kind, description, size [m], CARLA blueprint, ``physics`` (mass [kg],
+  max speed [m/s], max acceleration and deceleration [m/s^2], for export), its properties and the
   behaviors it supports, and ``implies``: states that words name for this asset only
   (``"tv": {"implies": {"power": {"on": ["tv show"]}}}``), and ``implied_by``: groups of
   phrases that together name the asset where none of its names occurs (``"spill":
@@ -39,11 +40,22 @@ from regen.errors import AssetDatabaseError, ConfigError
 from regen.promises.files import parse_json, read_text
 
 
+class Physics(Model):
+    """An asset's body as another simulator needs it (the OpenSCENARIO export's mass and
+    ``Performance``): a road user's with its rider or driver, a group's the members' together."""
+
+    mass: float = Field(gt=0)  # [kg]
+    max_speed: float | None = Field(default=None, gt=0)  # [m/s]
+    max_acceleration: float | None = Field(default=None, gt=0)  # [m/s^2]
+    max_deceleration: float | None = Field(default=None, gt=0)  # [m/s^2]
+
+
 class AssetSpec(Model):
     kind: Literal["agent", "object", "sensor"]
     description: str
     size: tuple[float, float, float] = (1.0, 1.0, 1.0)  # length, width, height [m]
     blueprint: str | None = None  # CARLA blueprint id, for export
+    physics: Physics | None = None  # mass and performance, for export (None: the exporter's nominal)
     aliases: list[str] = Field(default_factory=list)  # other names a model may use ('pedestrian')
     properties: list[str] = Field(default_factory=list)
     behaviors: list[str] = Field(default_factory=list)

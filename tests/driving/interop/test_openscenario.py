@@ -164,3 +164,55 @@ def test_only_moving_primitives_are_replayed_as_trajectories(straight_map, tmp_p
     out = export_openscenario(scenario.model_copy(update={"entities": entities}), trace, tmp_path / "known")
     assert validate_xosc(out["xosc"]) == []
     assert _trajectory_actors(ET.parse(out["xosc"]).getroot()) == {"ego", "ambulance1", "adult1"}
+
+
+def _body(obj: ET.Element) -> tuple[float, dict[str, float]]:
+    """(mass [kg], Performance attributes) of a ScenarioObject."""
+    (entity,) = list(obj)
+    perf = entity.find("Performance")
+    return float(entity.get("mass")), ({k: float(v) for k, v in perf.attrib.items()} if perf is not None else {})
+
+
+def test_every_entity_has_its_categorys_mass_and_performance(straight_map, tmp_path):
+    scenario, trace = _case(straight_map)
+    out = export_openscenario(scenario, trace, tmp_path)
+    objects = _objects(ET.parse(out["xosc"]).getroot())
+    assert _body(objects["ego"]) == (1500.0, {"maxSpeed": 50.0, "maxAcceleration": 4.5, "maxDeceleration": 9.0})
+    assert _body(objects["ambulance1"]) == (4500.0, {"maxSpeed": 40.0, "maxAcceleration": 3.0,
+                                                     "maxDeceleration": 7.5})
+    assert objects["ambulance1"].find("Vehicle").get("vehicleCategory") == "van"
+    assert _body(objects["adult1"]) == (75.0, {})  # a Pedestrian: a mass, no Performance in 1.2
+    assert _body(objects["cone1"]) == (4.0, {})
+
+
+def test_a_bicycle_is_exported_with_a_bicycles_mass_and_top_speed_unless_it_rode_faster(straight_map, tmp_path):
+    scenario, trace = _case(straight_map)
+    bike = trace.actors["ambulance1"].model_copy(update={"asset": "bicycle", "speed": [5.0] * trace.steps})
+    trace.actors["ambulance1"] = bike
+    entities = [e.model_copy(update={"asset": "bicycle", "properties": {}}) if e.name == "ambulance1" else e
+                for e in scenario.entities]
+    out = export_openscenario(scenario.model_copy(update={"entities": entities}), trace, tmp_path / "slow")
+    assert validate_xosc(out["xosc"]) == []
+    obj = _objects(ET.parse(out["xosc"]).getroot())["ambulance1"]
+    assert obj.find("Vehicle").get("vehicleCategory") == "bicycle"
+    assert _body(obj) == (90.0, {"maxSpeed": 12.0, "maxAcceleration": 1.5, "maxDeceleration": 5.0})
+    # a run where it rode at 14.26 m/s and braked at 8 m/s^2: the limits allow the replay
+    trace.actors["ambulance1"] = bike.model_copy(update={"speed": [14.26] * (trace.steps - 1) + [13.46]})
+    out = export_openscenario(scenario.model_copy(update={"entities": entities}), trace, tmp_path / "fast")
+    mass, perf = _body(_objects(ET.parse(out["xosc"]).getroot())["ambulance1"])
+    assert (mass, perf["maxSpeed"], perf["maxDeceleration"], perf["maxAcceleration"]) == (90.0, 14.3, 8.0, 1.5)
+
+
+def test_an_asset_without_physics_gets_its_categorys_nominal_values():
+    from regen.assets.database import AssetSpec
+    from regen.driving.assets import database
+    from regen.driving.interop.physics import NOMINAL, physics
+
+    db = database()
+    assert all(db.assets[a].physics is not None for members in db.categories.values() for a in members
+               if db.category_of(a) != "sensors")  # the project's database states every body
+    bare = db.model_copy(update={"assets": {**db.assets, "bus": AssetSpec(kind="agent", description="bus")}})
+    assert physics("bus", "vehicle", bare) == NOMINAL["bus"]
+    assert physics("bus", "vehicle", db)[0] == 15000.0
+    assert physics("ego", "vehicle", db) == NOMINAL["car"]
+    assert physics("unknown", "pedestrian", db) == (75.0, 0.0, 0.0, 0.0)

@@ -73,10 +73,39 @@ def test_a_cut_in_starts_at_a_longitudinal_offset_from_the_ego(tmp_path):
 
 
 def test_without_the_egos_story_the_ego_is_placed_but_not_driven(tmp_path):
-    root, _ = _export(CHILD, tmp_path / "noego", include_ego=False)
+    from regen.driving.interop.openscenario import validate_xosc
+
+    root, _ = _export(CHILD, tmp_path / "noego", ego_story=False)
     assert any(p.get("entityRef") == "ego" for p in root.iter("Private"))
     actors = [ref.get("entityRef") for g in root.iter("ManeuverGroup") for ref in g.findall("Actors/EntityRef")]
     assert "ego" not in actors and "child1" in actors
+    assert validate_xosc(tmp_path / "noego" / "x" / "scenario.xosc") == []
+
+
+def test_the_backends_export_leaves_the_egos_story_out_on_request(tmp_path):
+    """The option as ``regen generate --no-ego-story`` passes it: no ego story, maneuver or
+    event, the ego still an entity placed in Init, the child's story kept; schema-valid."""
+    from regen.core.scenario import Scenario
+    from regen.core.trace import Trace
+    from regen.driving.backend import DrivingBackend
+    from regen.driving.interop.openscenario import validate_xosc
+    from regen.pipeline.stages import run_path
+
+    folder = tmp_path / "run"
+    assert run_path(CHILD, folder, pictures=False).verdict.feasible
+    sc = Scenario.model_validate(json.loads((folder / "scenario.json").read_text())["scenario"])
+    tr = Trace.model_validate_json((folder / "trace.json").read_text())
+    with_ego = ET.parse(folder / "scenario.xosc").getroot()  # the pipeline's default: with it
+    assert "ego_story" in [s.get("name") for s in with_ego.iter("Story")]
+    files = DrivingBackend().export(sc, tmp_path / "out", trace=tr, ego_story=False)
+    assert validate_xosc(files["xosc"]) == []
+    root = ET.parse(files["xosc"]).getroot()
+    assert [s.get("name") for s in root.iter("Story")] == ["child1_story"]
+    named = [e.get("name") for tag in ("Maneuver", "ManeuverGroup", "Event") for e in root.iter(tag)]
+    assert named and not [n for n in named if n.startswith("ego")]
+    assert "ego" in {o.get("name") for o in root.iter("ScenarioObject")}
+    init = root.find("Storyboard/Init")
+    assert any(p.get("entityRef") == "ego" and p.find(".//TeleportAction") is not None for p in init.iter("Private"))
 
 
 LIGHT = chain("stop_abruptly", "the traffic light ahead turns red", ("traffic_light", {"light_state": ["turns_red"]}))

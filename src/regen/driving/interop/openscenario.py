@@ -1,11 +1,12 @@
 """OpenSCENARIO 1.x export of a driving run, for replay in esmini, CARLA's ScenarioRunner & co.
 
-Every actor of the trace becomes an entity (vehicle, pedestrian or misc object, with its size and
-its scenario properties), is teleported to its first recorded pose, and, if it moves (and its
-motion primitive is one that OpenSCENARIO replays, ``Primitive.xosc_trajectory``), follows the
-recorded path as a timed polyline trajectory (positions subsampled, times absolute from the start
-of the run). The scenario's OpenDRIVE map is copied beside the ``.xosc`` and referenced by its
-file name, so the folder can be moved as a whole.
+Every actor of the trace becomes an entity (vehicle, pedestrian or misc object, with its size, its
+mass and performance (:mod:`regen.driving.interop.physics`) and its scenario properties), is
+teleported to its first recorded pose, and, if it moves (and its motion primitive is one that
+OpenSCENARIO replays, ``Primitive.xosc_trajectory``), follows the recorded path as a timed
+polyline trajectory (positions subsampled, times absolute from the start of the run). The
+scenario's OpenDRIVE map is copied beside the ``.xosc`` and referenced by its file name, so the
+folder can be moved as a whole.
 
 Names come from a language model: entity names are restricted to ``[A-Za-z0-9_-]`` before they
 reach the file, and free text (narrative, property values) is stripped of characters XML cannot
@@ -27,6 +28,7 @@ from regen.core.io import atomic_write_bytes
 from regen.core.scenario import Scenario
 from regen.core.trace import ActorTrack, Trace
 from regen.driving.interop.appearance import APPEARANCE, appearance_action
+from regen.driving.interop.physics import VEHICLE_CATEGORY, physics
 from regen.driving.interop.signals import Light, with_signals
 from regen.driving.interop.storyboard import as_recorded, fire_index, state_group, triggered_group
 from regen.driving.world.plan import ActorPlan
@@ -36,18 +38,14 @@ from regen.errors import ConfigError, DependencyNotInstalled, RegenError
 
 log = logging.getLogger(__name__)
 
-__all__ = ["export_openscenario", "validate_xosc", "safe_name"]
+__all__ = ["export_openscenario", "map_file_name", "safe_name", "validate_xosc"]
 
 OSC_MINOR = 2  # OpenSCENARIO 1.2: widely read (esmini, ScenarioRunner) and has vehicle roles
 SAMPLE_DT = 0.1  # [s] between trajectory vertices: every simulation step (a player replays the run exactly)
 MOVING = 0.2  # [m] an actor whose path is shorter than this gets no trajectory
 
-# asset -> OpenSCENARIO vehicle category; other vehicles are cars
-_VEHICLE_CATEGORY = {"truck": "truck", "fire_truck": "truck", "bus": "bus", "bicycle": "bicycle",
-                     "motorcycle": "motorbike", "ambulance": "van"}
 _ROLE = {"ambulance": "ambulance", "police_car": "police", "fire_truck": "fire"}
 _MISC_CATEGORY = {"barrier": "barrier", "traffic_light": "pole"}
-_MASS = {"vehicle": 1500.0, "pedestrian": 75.0, "misc": 50.0}  # [kg], nominal
 _NAME_OK = re.compile(r"[^A-Za-z0-9_-]")
 _XML_BAD = re.compile("[^\u0009\u000a\u000d\u0020-\ud7ff\ue000-\ufffd]")
 
@@ -112,25 +110,24 @@ def _size(track: ActorTrack, db) -> tuple[float, float, float]:
     return length, width, track.height if track.height > 0 else height
 
 
-def _entity(xosc, name: str, track: ActorTrack, kind: str, db, props: dict[str, str]):
+def _entity(xosc, name: str, track: ActorTrack, kind: str, db, props: dict[str, str], dt: float):
     length, width, height = _size(track, db)
     # positions in the trace are footprint centres, so the reference point is the box centre
     bbox = xosc.BoundingBox(width, length, height, 0.0, 0.0, height / 2)
+    mass, v_max, a_max, d_max = physics(track.asset, kind, db, track, dt)
     if kind == "vehicle":
-        category = getattr(xosc.VehicleCategory, _VEHICLE_CATEGORY.get(track.asset, "car"))
+        category = getattr(xosc.VehicleCategory, VEHICLE_CATEGORY.get(track.asset, "car"))
         role = _ROLE.get(track.asset)
         wheel = 0.4 if track.asset in ("bicycle", "motorcycle") else 0.7  # [m] wheel diameter
         front = xosc.Axle(0.5, wheel, 0.85 * width, 0.3 * length, wheel / 2)
         rear = xosc.Axle(0.0, wheel, 0.85 * width, -0.3 * length, wheel / 2)
-        obj = xosc.Vehicle(name, category, bbox, front, rear, max_speed=70.0, max_acceleration=10.0,
-                           max_deceleration=10.0, mass=_MASS["vehicle"],
-                           role=getattr(xosc.Role, role) if role else None)
+        obj = xosc.Vehicle(name, category, bbox, front, rear, max_speed=v_max, max_acceleration=a_max,
+                           max_deceleration=d_max, mass=mass, role=getattr(xosc.Role, role) if role else None)
     elif kind == "pedestrian":
-        obj = xosc.Pedestrian(name, _MASS["pedestrian"], xosc.PedestrianCategory.pedestrian, bbox,
-                              model=safe_name(track.asset))
+        obj = xosc.Pedestrian(name, mass, xosc.PedestrianCategory.pedestrian, bbox, model=safe_name(track.asset))
     else:
         category = getattr(xosc.MiscObjectCategory, _MISC_CATEGORY.get(track.asset, "obstacle"))
-        obj = xosc.MiscObject(name, _MASS["misc"], category, bbox)
+        obj = xosc.MiscObject(name, mass, category, bbox)
     if track.asset == "ego":  # how CARLA ScenarioRunner finds the ego among the vehicles
         obj.add_property("type", "ego_vehicle")
     obj.add_property("regen_asset", safe_name(track.asset))
@@ -274,16 +271,16 @@ def _lights(plans: dict[str, ActorPlan], trace: Trace, names: dict[str, str]) ->
 
 
 def export_openscenario(scenario: Scenario, trace: Trace, out_dir: Path, *,
-                        sample_dt: float = SAMPLE_DT, include_ego: bool = True) -> dict[str, Path]:
+                        sample_dt: float = SAMPLE_DT, ego_story: bool = True) -> dict[str, Path]:
     """Write ``scenario.xosc`` (OpenSCENARIO 1.2) and a copy of the ``.xodr`` map into ``out_dir``.
 
     ``sample_dt`` [s] is the spacing of trajectory vertices. An actor whose cause action starts on
     a trigger gets a storyboard event started by the matching condition on the ego
     (:mod:`regen.driving.interop.storyboard`); the others replay their recorded path on
     simulation time. Every actor has a Story of its own (the ego's first).
-    ``include_ego=False`` leaves out the ego's own story (the ego is still
-    placed), for a user who drives it with their own stack. Returns ``{"xosc": path}`` plus
-    ``"xodr"`` when the map is known. A trace without steps raises :class:`ConfigError`.
+    ``ego_story=False`` leaves out the ego's own story (its path and its state changes; the ego
+    is still placed, in its first states), for a user who drives it with their own stack.
+    Returns ``{"xosc": path}`` plus ``"xodr"`` when the map is known. A trace without steps raises :class:`ConfigError`.
     """
     if trace.steps == 0:
         raise ConfigError(f"scenario {scenario.id!r}: the trace has no steps; nothing to export")
@@ -299,9 +296,10 @@ def export_openscenario(scenario: Scenario, trace: Trace, out_dir: Path, *,
     plans = _plans(scenario)
     triggers = {n: p.trigger.spec() for n, p in plans.items() if p.trigger is not None and p.kind != "sensor"}
     road, signal_ids = _road_network(xosc, scenario, trace, out_dir, _lights(plans, trace, names), files)
-    actors = _Actors(xosc, scenario, trace, db, names, sample_dt, include_ego)
+    actors = _Actors(xosc, scenario, trace, db, names, sample_dt, ego_story)
     for orig, changes, spec in _state_changes(xosc, plans, trace, names, signal_ids, actors.init, db):
-        actors.story(names[orig]).append(state_group(xosc, names[orig], changes, spec, actors.ego))
+        if orig != "ego" or ego_story:
+            actors.story(names[orig]).append(state_group(xosc, names[orig], changes, spec, actors.ego))
     actors.add_all(triggers)
     board = _storyboard(xosc, actors, float(actors.times[-1] - actors.times[0]))
     description = _safe_text(f"ReGen scenario {scenario.id}: {scenario.narrative}")
@@ -311,6 +309,12 @@ def export_openscenario(scenario: Scenario, trace: Trace, out_dir: Path, *,
     files["xosc"] = atomic_write_bytes(out_dir / "scenario.xosc", text)
     log.info("exported %s: %d entities, %d trajectories", files["xosc"], len(names), actors.moving)
     return {"xosc": files["xosc"], **({"xodr": files["xodr"]} if "xodr" in files else {})}
+
+
+def map_file_name(xodr: Path) -> str:
+    """The name of a map's copy beside the exported files (the ``.xosc`` and the Scenic programs
+    refer to it by this name)."""
+    return f"{safe_name(Path(xodr).stem)}.xodr"
 
 
 def _database():
@@ -334,7 +338,7 @@ def _road_network(xosc, scenario: Scenario, trace: Trace, out_dir: Path, lights:
                     scenario.id)
         return xosc.RoadNetwork(), {}
     signal_ids: dict[str, str] = {}
-    files["xodr"] = out_dir / f"{safe_name(xodr.stem)}.xodr"
+    files["xodr"] = out_dir / map_file_name(xodr)
     if lights:  # the map's copy holds a signal per light, for the storyboard to switch
         text, signal_ids = with_signals(xodr.read_text(encoding="utf-8"), lights)
         atomic_write_bytes(files["xodr"], text.encode("utf-8"))
@@ -348,9 +352,9 @@ class _Actors:
     maneuver groups of each one's Story (``stories``, by file name)."""
 
     def __init__(self, xosc, scenario: Scenario, trace: Trace, db, names: dict[str, str], sample_dt: float,
-                 include_ego: bool) -> None:
+                 ego_story: bool) -> None:
         self.xosc, self.trace, self.db, self.names = xosc, trace, db, names
-        self.sample_dt, self.include_ego = sample_dt, include_ego
+        self.sample_dt, self.ego_story = sample_dt, ego_story
         self.props = {e.name: e.properties for e in scenario.entities}
         self.standing = _standing(scenario)
         self.times = np.asarray(trace.times, float)
@@ -376,13 +380,14 @@ class _Actors:
         """One actor: its entity, its teleport to its first pose, and, if it moves (and its
         primitive is replayed, and it is not a left-out ego), its start speed and its path."""
         xosc, name = self.xosc, self.names[orig]
-        self.entities.add_scenario_object(name, _entity(xosc, name, track, kind, self.db, self.props.get(orig, {})))
+        self.entities.add_scenario_object(name, _entity(xosc, name, track, kind, self.db, self.props.get(orig, {}),
+                                                        float(self.trace.dt)))
         heading = _headings(track)
         self.init.add_init_action(name, xosc.TeleportAction(_position(xosc, track, heading, 0)))
         x, y = np.asarray(track.x, float), np.asarray(track.y, float)
         if orig in self.standing or float(np.hypot(np.diff(x), np.diff(y)).sum()) < MOVING:
             return
-        if orig == "ego" and not self.include_ego:
+        if orig == "ego" and not self.ego_story:
             return
         if track.speed and kind != "misc":
             self.init.add_init_action(name, xosc.AbsoluteSpeedAction(float(track.speed[0]), xosc.TransitionDynamics(
