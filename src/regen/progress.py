@@ -1,4 +1,5 @@
-"""Progress of the main job: a rich live display, quiet, or JSON lines for scripts."""
+"""Progress of the main job: a rich live display in a terminal, plain lines in a log or a pipe,
+quiet, or JSON lines for scripts."""
 
 from __future__ import annotations
 
@@ -29,6 +30,50 @@ class JsonLinesProgress(_Sink):
     def on_event(self, ev: dict[str, Any]) -> None:
         self.out.file.write(json.dumps(ev, default=str) + "\n")
         self.out.file.flush()
+
+
+class PlainProgress(_Sink):
+    """Progress where no live display can be drawn (a CI log, a pipe, a dumb terminal): one plain
+    line per stage and per finished scenario, and in between a line on what is going on at most
+    every ``every`` seconds; nothing is redrawn, nothing runs into the lines that follow."""
+
+    def __init__(self, console: Console, *, every: float = 5.0, clock: Any = time.monotonic):
+        self.console, self.every, self.clock = console, every, clock
+        self.start = self.last = clock()
+        self.stage = "starting"
+        self.total = self.done = self.feasible = 0
+        self.calls = self.cached = self.tokens = 0
+        self.current = ""
+
+    def _say(self, line: str) -> None:
+        self.console.print(" ".join(line.split()), markup=False, highlight=False, soft_wrap=True)
+        self.last = self.clock()
+
+    def on_event(self, ev: dict[str, Any]) -> None:
+        kind = ev.get("event")
+        if kind == "stage":
+            self.stage, self.current = str(ev.get("stage")), ""
+            self._say(f"stage: {self.stage}")
+            return
+        if kind == "paths":
+            self.total = int(ev.get("total") or 0)
+            self._say(f"{self.total} scenario(s) to ground and simulate")
+            return
+        if kind == "scenario_done":
+            self.done += 1
+            self.feasible += bool(ev.get("feasible"))
+            kept = " (kept from an earlier run)" if ev.get("skipped") else ""
+            self._say(f"scenario {self.done}/{self.total or '?'} done: {ev.get('name')}: {ev.get('status')}{kept}")
+            return
+        if kind == "llm_call":
+            self.calls += 1
+            self.cached += bool(ev.get("cached"))
+            self.tokens += int(ev.get("tokens", 0))
+        elif kind in ("grounding", "simulating", "redrawing"):
+            self.current = f"{kind} {ev.get('name')}"
+        if self.clock() - self.last >= self.every:
+            self._say(f"... {self.stage}{': ' + self.current if self.current else ''}; model: {self.calls} calls, "
+                      f"{self.cached} cached, {self.tokens} tokens; {self.clock() - self.start:.0f} s elapsed")
 
 
 class RichProgress(_Sink):
@@ -88,10 +133,14 @@ class RichProgress(_Sink):
 
 @contextmanager
 def make_progress(mode: str, *, console: Console, out: Console) -> Iterator[_Sink]:
+    """The sink of ``--log MODE``: 'quiet', 'jsonl' (events on ``out``), else 'rich': a live
+    display on ``console`` when it is a terminal, plain lines (:class:`PlainProgress`) when not."""
     if mode == "quiet":
         yield QuietProgress()
     elif mode == "jsonl":
         yield JsonLinesProgress(out)
+    elif not console.is_terminal or console.is_dumb_terminal:
+        yield PlainProgress(console)
     else:
         sink = RichProgress(console)
         with sink.live:

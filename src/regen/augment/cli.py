@@ -6,18 +6,18 @@ from __future__ import annotations
 
 from rich.console import Console
 
+from regen.cli_help import llm_help
 from regen.pipeline.terminal import shown
 from regen.promises.folders import output_folder, run_of
 from regen.runfolder import RunFolder
 from regen.whatif import cli_args
 
 console = Console(highlight=False, soft_wrap=True)
-LLM_HELP = ("Model that proposes (and judges, unless --no-judge): local (offline default), local:<alias or "
-            ".gguf>, openai:<model>, anthropic:<model> (keys as for regen generate)")
+LLM_HELP = llm_help("that proposes and judges the causes (unless --no-judge)")
 OutOption = cli_args.out_option("Folder for augment.json and augment.html (default: RUN/augment of the "
                                 "scenario's run; needed for a scenario folder that is not inside a run)")
 LlmOption = cli_args.llm_option(LLM_HELP)
-PicturesOption = cli_args.pictures_option("Draw each counterfactual's GIF")
+PicturesOption = cli_args.pictures_option("Draw each counterfactual's GIF; --no-pictures is faster")
 JudgeOption = cli_args.judge_option("Also ask the model whether each added cause causes the behavior; "
                                     "recorded beside the simulation's answer, which decides")
 

@@ -13,6 +13,7 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
+from regen.cli_help import llm_help
 from regen.errors import ConfigError, RegenError
 from regen.evaluation.edges import bundled_edge_examples, model_judge
 from regen.evaluation.evaluate import EvalSettings, evaluate
@@ -32,36 +33,38 @@ def _exit(exc: RegenError) -> typer.Exit:
 
 def eval_command(
     sources: Annotated[list[str] | None, typer.Argument(
+        metavar="SOURCE",
         help="Run folders, text sets (.txt one per line, .json, .jsonl) or example:<name> "
-             "(bundled sets; see --list-examples). Each is one column of the comparison.",
+             "(bundled sets; see --list-examples). Each is one column of the comparison",
         show_default=False)] = None,
     out_text: Annotated[str | None, typer.Option(
-        "--out", "-o", help="Folder for eval.json and PNG plots.", show_default=False)] = None,
+        "--out", "-o", metavar="<folder>", help="Folder for eval.json and the PNG plots (with --fidelity: "
+                                                "the runs of every case)", show_default=False)] = None,
     sample_size: Annotated[int | None, typer.Option(
-        "--n", help="Texts drawn per repeat; default: the smallest set size.")] = None,
-    repeats: Annotated[int, typer.Option(help="Draws per set (the paper uses 10).")] = 10,
-    seed: Annotated[int, typer.Option(help="Seed of the draws.")] = 0,
+        "--n", help="Texts drawn per repeat; default: the smallest set size")] = None,
+    repeats: Annotated[int, typer.Option(help="Draws per set (the paper uses 10)")] = 10,
+    seed: Annotated[int, typer.Option(help="Random seed of the draws")] = 0,
     embeddings: Annotated[bool, typer.Option(
-        help="Embedding diversity with all-MiniLM-L6-v2 (needs the eval extra).")] = True,
+        help="Embedding diversity with all-MiniLM-L6-v2 (needs the eval extra)")] = True,
     self_bleu: Annotated[bool, typer.Option("--self-bleu/--no-self-bleu",
-                                            help="Self-BLEU diversity.")] = True,
+                                            help="Self-BLEU diversity")] = True,
     edges: Annotated[str | None, typer.Option(
-        help="Labeled edge file (JSON lines) for edge-construction accuracy; 'example' uses "
-             "the bundled one.")] = None,
-    llm: Annotated[str, typer.Option(help="Model for edge construction, e.g. local or "
-                                          "openai:gpt-4o.")] = "local",
-    trials: Annotated[int, typer.Option(help="Edge-construction trials.")] = 5,
+        metavar="<file>", help="Labeled edge file (JSON lines) for edge-construction accuracy; 'example' "
+                               "uses the bundled one")] = None,
+    llm: Annotated[str, typer.Option(metavar="<model>", help=llm_help("for --edges and --fidelity"))] = "local",
+    trials: Annotated[int, typer.Option(help="Edge-construction trials")] = 5,
     list_examples: Annotated[bool, typer.Option(
-        "--list-examples", help="List the bundled example text sets and exit.")] = False,
+        "--list-examples", help="List the bundled example text sets and exit")] = False,
     fidelity: Annotated[str | None, typer.Option(
-        "--fidelity", help="Labeled cause texts (JSON lines, or 'driving' / 'manipulation' for the "
-                           "bundled sets): runs each insisted cause through the main job with --llm "
-                           "into --out (resumable) and reports entity and key-state accuracy and "
-                           "verified-but-unfaithful scenarios, per split.")] = None,
+        "--fidelity", metavar="<file>",
+        help="Labeled cause texts (JSON lines, or 'driving' / 'manipulation' for the "
+             "bundled sets): runs each insisted cause through the main job with --llm "
+             "into --out (resumable) and reports entity and key-state accuracy and "
+             "verified-but-unfaithful scenarios, per split")] = None,
 ) -> None:
     """Diversity (embedding and Self-BLEU), feasibility, controllability, edge accuracy and
     entity fidelity."""
-    console = Console()
+    console = Console(soft_wrap=True)  # a path is printed whole on one line, in a terminal or a CI log
     try:  # typer would turn an empty --out into Path(""), the current folder
         out = None if out_text is None else out_folder(out_text)
         if out is not None and not list_examples:  # a file in its place is told before any work

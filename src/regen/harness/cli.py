@@ -41,30 +41,41 @@ def default_out(run_dir: Path, policy: str) -> Path:
     return Path(run_dir) / RunFolder.TESTS / safe
 
 
+RunDirArgument = Annotated[Path, typer.Argument(metavar="RUN_DIR", help="A run folder made by regen generate",
+                                                show_default=False)]
+PolicyOption = Annotated[str | None, typer.Option(
+    "--policy", "-p", metavar="<spec>",
+    help="A built-in policy of the run's domain (an unknown name lists them), module:callable or "
+         "path/to/file.py[:callable], called every step with the domain's observation (default: the "
+         "domain's first built-in)", show_default=False)]
+VariantsOption = Annotated[int | None, typer.Option(
+    min=1, help="Parameter variants per scenario, sampled (seeded) from its solved feasible set; "
+                "variant 0 is the scenario as grounded (default 1). With --adversarial: the "
+                "candidates searched per scenario (default 16)", show_default=False)]
+OutOption = Annotated[str | None, typer.Option(
+    "--out", "-o", metavar="<folder>", help="Folder for tests.json and junit.xml (default: RUN_DIR/tests/<policy>)",
+    show_default=False)]
+OracleOption = Annotated[str, typer.Option(
+    help="fsm: the FSM's expected states in order, no collision and no incident; safety: no "
+         "collision and no incident only")]
+StepTimeoutOption = Annotated[float | None, typer.Option(
+    "--step-timeout", min=0.001, help="Wall seconds a policy may take per step (default: the domain's, 1 s)",
+    show_default=False)]
+AdversarialOption = Annotated[bool, typer.Option(
+    "--adversarial", help="Search the feasible parameters for variants that make the policy fail while the "
+                          "scripted robot verifies and collides with nothing in the same variant; report them "
+                          "with their parameters")]
+
+
 def test_command(
-    run_dir: Annotated[Path, typer.Argument(help="A run folder made by regen generate.", show_default=False)],
-    policy: Annotated[str | None, typer.Option(
-        "--policy", "-p", help="A built-in policy of the run's domain (an unknown name lists them), "
-                               "module:callable or path/to/file.py[:callable], called every step "
-                               "with the domain's observation (default: the domain's first built-in).",
-        show_default=False)] = None,
-    variants: Annotated[int | None, typer.Option(
-        min=1, help="Parameter variants per scenario, sampled (seeded) from its solved feasible set; "
-                    "variant 0 is the scenario as grounded (default 1). With --adversarial: the "
-                    "candidates searched per scenario (default 16).", show_default=False)] = None,
-    seed: Annotated[int, typer.Option(help="Seed of the variant sampling.")] = 0,
-    out: Annotated[str | None, typer.Option(
-        "--out", "-o", help="Folder for tests.json and junit.xml (default: RUN_DIR/tests/<policy>).")] = None,
-    oracle: Annotated[str, typer.Option(
-        help="fsm: the FSM's expected states in order, no collision and no incident; safety: no "
-             "collision and no incident only.")] = "fsm",
-    step_timeout: Annotated[float | None, typer.Option(
-        "--step-timeout", min=0.001, help="Wall seconds a policy may take per step (default: the "
-                                          "domain's, 1 s).", show_default=False)] = None,
-    adversarial: Annotated[bool, typer.Option(
-        "--adversarial", help="Search the feasible parameters for variants that make the policy fail "
-                              "while the scripted robot verifies and collides with nothing "
-                              "in the same variant; report them with their parameters.")] = False,
+    run_dir: RunDirArgument,
+    policy: PolicyOption = None,
+    variants: VariantsOption = None,
+    seed: Annotated[int, typer.Option(help="Random seed of the variant sampling")] = 0,
+    out: OutOption = None,
+    oracle: OracleOption = "fsm",
+    step_timeout: StepTimeoutOption = None,
+    adversarial: AdversarialOption = False,
 ) -> None:
     """Run a policy in place of the scripted robot in every verified scenario of a run."""
     from regen.harness.adversarial import DEFAULT_BUDGET, summary_lines

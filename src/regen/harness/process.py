@@ -84,6 +84,7 @@ class PolicyProcess:
         to_child_r, to_child_w = os.pipe()
         from_child_r, from_child_w = os.pipe()
         env = {k: v for k, v in os.environ.items() if k not in PROVIDER_KEYS}
+        env["PYTHONUNBUFFERED"] = "1"  # a policy's print() reaches policy.log before the process is killed
         log = subprocess.DEVNULL
         if self.log_path is not None:
             self.log_path.parent.mkdir(parents=True, exist_ok=True)

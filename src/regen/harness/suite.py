@@ -194,17 +194,21 @@ def run_tests(run_dir: str | Path, policy_spec: str, *, variants: int = 1, seed:
                    on_case=on_case, on_episode=on_episode, on_note=on_note)
     try:
         if results is not None:
+            results.lock()
+        if policy is None:
+            suite.remote = PolicyProcess(harness, policy_spec,
+                                         log_path=results.path / POLICY_LOG if results is not None else None)
+            try:
+                suite.remote.start()
+            except RegenError as exc:  # a refused policy leaves nothing behind, nor changes earlier results
+                raise (exc if results is None else results.refused(exc)) from None
+        if results is not None:  # after the policy loaded: a refused policy leaves nothing in the run
             settings = {"policy": policy_spec, "policy_digest": policy_digest(policy_spec),
                         "variants": variants, "seed": seed, "oracle": oracle, "step_timeout": timeout,
                         "adversarial": adversarial, "in_process": policy is not None}
             note = results.open(settings)
             if note and on_note is not None:
                 on_note(note)
-        if policy is None:
-            suite.remote = PolicyProcess(harness, policy_spec,
-                                         log_path=results.path / POLICY_LOG if results is not None else None)
-            suite.remote.start()
-        if results is not None:  # after the policy loaded: a refused policy leaves nothing in the run
             results.hold_run(rf.path)
         suite.run(rf, domain)
         if results is not None:

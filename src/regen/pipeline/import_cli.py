@@ -10,16 +10,20 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
+from regen.cli_help import DOMAIN_METAVAR, FOLDER_METAVAR, FRESH_HELP, PICTURES_HELP, RUN_OUT_HELP
+
 console = Console(highlight=False, soft_wrap=True)
 err_console = Console(stderr=True, highlight=False, soft_wrap=True)
 
 
 def import_command(
-    file: str = typer.Argument(..., help="The scenario file, e.g. scenario.xosc (its .xodr map beside it)"),
-    out: str = typer.Option(..., "--out", "-o", help="Run folder (rerun the same command to resume)"),
-    domain: str = typer.Option(None, "--domain", "-d", help="The domain that reads it (default: by its suffix)"),
-    no_pictures: bool = typer.Option(False, "--no-pictures", help="Skip GIFs and key frames"),
-    fresh: bool = typer.Option(False, "--fresh", help="Discard an earlier run in --out instead of resuming it"),
+    file: str = typer.Argument(..., metavar="FILE", help="The scenario file, e.g. scenario.xosc (its .xodr map "
+                               "beside it)"),
+    out: str = typer.Option(..., "--out", "-o", metavar=FOLDER_METAVAR, help=RUN_OUT_HELP),
+    domain: str = typer.Option(None, "--domain", "-d", metavar=DOMAIN_METAVAR, help="The robot's domain, which "
+                               "reads the file (default: by its suffix)"),
+    pictures: bool = typer.Option(True, "--pictures/--no-pictures", help=PICTURES_HELP),
+    fresh: bool = typer.Option(False, "--fresh", help=FRESH_HELP),
 ) -> None:
     """Import a scenario file: read its storyboard, derive the FSM, simulate and verify it."""
     from regen import domains
@@ -34,7 +38,7 @@ def import_command(
                 status.update(f"simulating and verifying {escape(str(ev['name']))}")
 
         try:
-            result = import_file(Path(file), out_dir, domain=domain, pictures=not no_pictures, fresh=fresh,
+            result = import_file(Path(file), out_dir, domain=domain, pictures=pictures, fresh=fresh,
                                  on_event=on_event)
         except KeyboardInterrupt:
             err_console.print(f"[yellow]interrupted; run the same command again to resume ({escape(out)})[/]")

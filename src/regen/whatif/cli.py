@@ -8,6 +8,7 @@ from pathlib import Path
 import typer
 from rich.console import Console
 
+from regen.cli_help import llm_help
 from regen.errors import ConfigError
 from regen.pipeline.terminal import shown
 from regen.promises.folders import output_folder
@@ -17,12 +18,11 @@ from regen.whatif import cli_args
 console = Console(highlight=False, soft_wrap=True)
 
 
-LLM_HELP = ("Model for --ask and the judge: local (offline default), local:<alias or .gguf>, "
-            "openai:<model>, anthropic:<model> (keys as for regen generate)")
+LLM_HELP = llm_help("that answers --ask and judges the cause (unless --no-judge)")
 OutOption = cli_args.out_option("Folder for the counterfactual (default: RUN/whatif of the scenario's "
                                 "run; needed for a scenario folder that is not inside a run)")
 LlmOption = cli_args.llm_option(LLM_HELP)
-PicturesOption = cli_args.pictures_option("Draw the counterfactual's GIF")
+PicturesOption = cli_args.pictures_option("Draw the counterfactual's GIF; --no-pictures is faster")
 JudgeOption = cli_args.judge_option("Also ask the model (--llm) whether the edited cause still causes the "
                                     "behavior; its answer is recorded beside the simulation's (the but-for "
                                     "check with the reference robot), which decides")
@@ -38,14 +38,17 @@ def llm_options(llm: str, cache: str, replay: bool):
 
 def whatif_command(
     scenario_dir: cli_args.ScenarioDirArgument,
-    set_: list[str] = typer.Option([], "--set", help="ENTITY.PROPERTY=VALUE, e.g. sedan1.brake_lights=broken "
-                                                      "(repeatable)"),
-    remove: list[str] = typer.Option([], "--remove", help="An entity of the cause chain that leaves the scene "
-                                                         "(repeatable)"),
-    add: list[str] = typer.Option([], "--add", help="A cause text that joins the chain, naming its entity, e.g. "
-                                                   "'a cyclist rides ahead' (repeatable)"),
-    ask: str | None = typer.Option(None, "--ask", help="A what-if question in words; the model answers with "
-                                                       "edits, which are shown and recorded"),
+    set_: list[str] = typer.Option([], "--set", metavar="<entity.property=value>",
+                                    help="Give a property of an entity of the chain another value, e.g. "
+                                         "sedan1.brake_lights=broken (repeatable)"),
+    remove: list[str] = typer.Option([], "--remove", metavar="<entity>",
+                                     help="An entity of the cause chain that leaves the scene (repeatable)"),
+    add: list[str] = typer.Option([], "--add", metavar="<cause>",
+                                  help="A cause text that joins the chain, naming its entity, e.g. 'a cyclist "
+                                       "rides ahead' (repeatable)"),
+    ask: str | None = typer.Option(None, "--ask", metavar="<question>",
+                                   help="A what-if question in words; the model answers with edits, which are "
+                                        "shown and recorded"),
     out: OutOption = None,
     llm: LlmOption = "local",
     replay: cli_args.ReplayOption = False,

@@ -13,13 +13,15 @@ from typing import Annotated, Any
 import typer
 from rich.console import Console
 
+from regen.cli_help import FOLDER_METAVAR, MODEL_METAVAR, REPLAY_HELP
 from regen.errors import ConfigError, RegenError
 from regen.pipeline.terminal import shown
 from regen.promises.folders import beside_run, out_folder
 from regen.runfolder import RunFolder, ScenarioFolder
 
-ScenarioDirArgument = Annotated[str, typer.Argument(help="A scenario folder of a run: RUN/scenarios/<name>")]
-ReplayOption = Annotated[bool, typer.Option("--replay", help="Forbid model calls: cached answers only")]
+ScenarioDirArgument = Annotated[str, typer.Argument(metavar="SCENARIO_DIR",
+                                                    help="A scenario folder of a run: RUN/scenarios/<name>")]
+ReplayOption = Annotated[bool, typer.Option("--replay", help=REPLAY_HELP)]
 
 # the options each command words for itself: a command declares e.g. ``OutOption = out_option("...")``
 # and its parameter ``out: OutOption = None`` (typer takes the default from ``=``)
@@ -27,12 +29,12 @@ ReplayOption = Annotated[bool, typer.Option("--replay", help="Forbid model calls
 
 def out_option(help: str) -> Any:
     """``--out``/``-o`` (a str, default None): the folder to write in, else one of the scenario's run."""
-    return Annotated[str | None, typer.Option("--out", "-o", help=help)]
+    return Annotated[str | None, typer.Option("--out", "-o", metavar=FOLDER_METAVAR, help=help)]
 
 
 def llm_option(help: str) -> Any:
     """``--llm`` (a str, default 'local'): the model the command asks."""
-    return Annotated[str, typer.Option("--llm", help=help)]
+    return Annotated[str, typer.Option("--llm", metavar=MODEL_METAVAR, help=help)]
 
 
 def pictures_option(help: str) -> Any:
