@@ -168,3 +168,10 @@ def test_plain_progress_says_at_most_a_line_every_few_seconds() -> None:
     assert lines[-1] == "scenario 1/2 done: 01-" + "x" * 60 + ": verified"  # whole, though the width is 30
     with make_progress("rich", console=console, out=console) as chosen:  # not a terminal: plain lines
         assert isinstance(chosen, PlainProgress)
+
+
+def test_no_ego_story_is_refused_where_the_export_has_no_ego_story(tmp_path):
+    res = CliRunner().invoke(app, ["generate", "the robot opens the door", "-d", "manipulation", "--no-ego-story",
+                                   "--out", str(tmp_path / "run"), "--llm", "none"], env={"COLUMNS": "200"})
+    assert res.exit_code == 2 and "--no-ego-story" in res.output and "manipulation" in res.output, res.output
+    assert not (tmp_path / "run").exists()

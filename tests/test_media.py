@@ -97,3 +97,46 @@ def test_png_round_trips(tmp_path):
 def test_the_writer_names_no_domain():
     text = Path(media.__file__).read_text().lower()
     assert "driving" not in text and "manipulation" not in text
+
+
+def test_steps_until_cut_an_animation_at_a_time_and_keep_that_step():
+    times = np.round(np.arange(0, 10.01, 0.1), 6)
+    steps = list(range(0, 101, 2))
+    cut = media.steps_until(times, steps, 4.45)
+    assert cut[-1] == 45 and all(i <= 45 for i in cut) and cut[:-1] == list(range(0, 45, 2))
+    assert media.steps_until(times, steps, 99.0) == steps  # past the end: all of it
+
+
+def test_held_shows_the_last_frame_longer():
+    assert media.held(3, 100) == [100, 100, media.HOLD_MS]
+    assert media.held(1, 5000) == [5000] and media.held(0, 100) == []
+
+
+def test_a_gif_with_one_duration_per_frame_and_a_shared_palette(tmp_path):
+    frames = [_tile(c) for c in (RED, BLUE, RED)]
+    path = media.write_gif(tmp_path / "a.gif", frames, media.held(3, 120), palette=media.palette_of(frames))
+    im = Image.open(path)
+    durations = []
+    for k in range(im.n_frames):
+        im.seek(k)
+        durations.append(im.info["duration"])
+        assert tuple(np.asarray(im.convert("RGB"))[5, 5]) == (RED, BLUE, RED)[k]
+    assert durations == [120, 120, media.HOLD_MS]
+
+
+def test_the_caption_band_shows_one_box_per_stage_green_once_reached():
+    bar = media.StageBar([(1, 0.5, "a: s0"), (2, None, "b: s1")], "fsm_incomplete", 2, 4.0)
+    img = Image.new("RGB", (320, 100), media.WHITE)
+    media.draw_caption(img, 44, bar, 4.0)
+    px = np.asarray(img).astype(int)
+    assert tuple(px[0, 0]) == media.WHITE and tuple(px[44 + 3, 300]) == media.CAPTION_BG
+    first, second = px[44 + 31 + 2, 8 + 2], px[44 + 31 + 2, 28 + 2]  # a corner of each box
+    assert tuple(first) == media.STAGE_DONE and tuple(second) == media.STAGE_FAILED  # never reached, at the end
+    media.draw_caption(img, 44, bar, 0.2)
+    assert tuple(np.asarray(img)[44 + 31 + 2, 28 + 2]) == media.STAGE_TODO  # not yet
+
+
+def test_key_frames_are_the_start_each_stage_reached_and_the_end():
+    times = np.round(np.arange(0, 10.01, 0.1), 6)
+    picks = media.keyframe_steps(times, [(1, 0.0, "a"), (2, 3.0, "b"), (3, None, "c")], 6)
+    assert picks == [(0, "start"), (30, "stage 2 reached"), (65, "during"), (100, "end")]

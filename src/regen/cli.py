@@ -272,6 +272,9 @@ def generate_cmd(
     trajectory: str = typer.Option(None, "--ego-trajectory", metavar="<file>", help=TRAJECTORY_HELP),
     map_name: str = typer.Option(None, "--map", help="With --ego-trajectory: the file is in this generated "
                                  "map's coordinates (straight, four_way, t_junction)"),
+    no_ego_story: bool = typer.Option(False, "--no-ego-story", help="Driving: leave the ego's story out of "
+                                      "each scenario.xosc (the ego is placed, not driven: for a ScenarioRunner "
+                                      "user whose own agent drives it)"),
 ) -> None:
     """The main job: behavior -> causal graph -> scenarios -> simulation -> verdicts -> report."""
     from regen.errors import ConfigError
@@ -288,7 +291,8 @@ def generate_cmd(
     settings = RunSettings(llm=llm, depth=depth, max_nodes=max_nodes, max_scenarios=scenarios,
                            causes=causes, prior=prior, candidates=candidate or [],
                            forced_causes=cause or [], seed=seed,
-                           workers=workers, pictures=pictures, llm_timeout=llm_timeout)
+                           workers=workers, pictures=pictures, llm_timeout=llm_timeout,
+                           export_options=_export_options(b.domain, no_ego_story))
     with make_progress(log, console=err_console, out=console) as progress:
         try:
             result = generate(b, out_dir, settings=settings, replay=replay, fresh=fresh,
@@ -299,6 +303,17 @@ def generate_cmd(
             raise typer.Exit(130) from None
     if log != "jsonl":
         _print_generated(result, out_dir)
+
+
+def _export_options(domain: str, no_ego_story: bool) -> dict[str, bool]:
+    """The run's export options from the flags; ConfigError when the domain's export takes none such."""
+    from regen.errors import ConfigError
+
+    if not no_ego_story:
+        return {}
+    if "ego_story" not in domains.make(domain).export_options:
+        raise ConfigError(f"--no-ego-story: the {domain} domain's export has no ego story; leave the flag out")
+    return {"ego_story": False}
 
 
 def _behavior_to_generate(behavior: str | None, domain: str, *, template: str | None, reward: str | None,

@@ -105,6 +105,10 @@ class ReportHints:
     #: the behavior tests record the robot's time to collision and gap (``regen test``); a
     #: domain that measures neither gets no such columns
     proximity: bool = False
+    #: what the domain's numbers mean: a solved parameter or a world setting by name ->
+    #: (meaning, unit), e.g. ``{"v": ("speed", "m/s")}``; unit '' for none. The report shows the
+    #: meaning beside the name and the unit beside the value; names left out show as they are.
+    quantities: Mapping[str, tuple[str, str]] = field(default_factory=dict)
 
 
 @dataclass
@@ -316,9 +320,14 @@ class DomainBackend(ABC):
         """Pictures of the run written into ``out_dir``, as role -> path (``animation`` and
         ``keyframes`` are shown by the report)."""
 
-    def export(self, scenario: Scenario, out_dir: Path, trace: Trace | None = None) -> dict[str, Path]:
+    #: The keyword options :meth:`export` takes (``regen generate`` passes them from the run's
+    #: settings), as option -> what it does; an option a domain does not list is refused.
+    export_options: ClassVar[dict[str, str]] = {}
+
+    def export(self, scenario: Scenario, out_dir: Path, trace: Trace | None = None, **options: bool
+               ) -> dict[str, Path]:
         """Files other simulators load (Scenic, OpenSCENARIO, ...) as role -> path, given the
-        run's trace when there is one. Optional."""
+        run's trace when there is one, with the :attr:`export_options` given. Optional."""
         return {}
 
     def policy_harness(self) -> PolicyHarness | None:

@@ -39,7 +39,7 @@ def _cell(row: str, cls: str) -> str:
 
 def _tests_section(html: str) -> str:
     start = html.index('<h2 id="tests">')
-    return html[start:html.index('<h2 id="graph">', start)]
+    return html[start:html.index('<h2 id="', start + 1)]  # up to the next section
 
 
 # --- real policies on a verified scenario (slow) -------------------------------------------------

@@ -153,7 +153,8 @@ def test_behavior_tests_show_the_scenarios_causal_check(make_run) -> None:
     assert [c.causal for c in rows] == ["confounded: traffic_light1", "caused", None]
     assert rows[0].causal_label == "confounded by traffic_light1" and rows[0].causal_status == "confounded"
     html = write_report(run).read_text(encoding="utf-8")
-    section = html[html.index('<h2 id="tests">'):html.index('<h2 id="graph">')]
+    start = html.index('<h2 id="tests">')
+    section = html[start:html.index('<h2 id="', start + 1)]  # up to the next section
     failure = section[section.index('<figure class="failure">'):section.index("</figure>")]
     assert "confounded by traffic_light1" in failure
     assert "another entity alone explains the behavior" in failure

@@ -113,7 +113,7 @@ def test_report_loads_offline_with_all_pictures(browser, make_run) -> None:
     assert errors == [], f"console errors: {errors}"
     images = browser.execute_script(
         "return Array.from(document.images).map(i => [i.getAttribute('src'), i.complete, i.naturalWidth])")
-    assert len(images) == 1 + 2 * 3  # graph + GIF and key frames per scenario
+    assert len(images) == 1 + 3 * 3  # graph + GIF, key frames and its gallery card per scenario
     broken = [src for src, complete, width in images if not (complete and width > 0)]
     assert broken == [], f"pictures that did not load: {broken}"
     assert any(src.endswith("bird_eye.gif") for src, _, _ in images)

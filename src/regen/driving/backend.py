@@ -186,7 +186,26 @@ class DrivingBackend(DomainBackend):
     report_hints = ReportHints(animation="bird's-eye animation of the run",
                                keyframes="key frames at the start, at each stage and at the end "
                                          "(click for full size)",
-                               robot="ego-vehicle", proximity=True)
+                               robot="ego-vehicle", proximity=True,
+                               quantities={
+                                   # the placement's parameters (regen.driving.world.placement)
+                                   "s": ("start position along the ego's road", "m"),
+                                   "v": ("speed", "m/s"),
+                                   "t": ("time it acts, from the start", "s"),
+                                   "d0": ("start distance before the junction", "m"),
+                                   # DrivingWorld
+                                   "map": ("generated road map", ""),
+                                   "ego_template": ("the ego's scripted behavior", ""),
+                                   "duration": ("simulated time", "s"),
+                                   "dt": ("simulation step", "s"),
+                                   "seed": ("random seed", ""),
+                                   "grounder": ("who grounded the scenario", ""),
+                                   "model_parts": ("parts the model wrote", ""),
+                                   "rule_parts": ("parts the rules wrote", ""),
+                                   "llm": ("model", ""),
+                                   "model_calls": ("the model's answers used", ""),
+                                   "grounding_notes": ("why the rules wrote parts", ""),
+                               })
 
     def check_behavior(self, behavior: Behavior) -> None:
         if behavior.params.get("reward"):
@@ -317,15 +336,21 @@ class DrivingBackend(DomainBackend):
 
         return paper_config(scenario)
 
-    def export(self, scenario: Scenario, out_dir: Path, trace: Trace | None = None) -> dict[str, Path]:
-        """The Scenic program that runs the scenario, and with a trace an OpenSCENARIO replay."""
+    export_options = {"ego_story": "the ego's story in scenario.xosc (False: the ego is placed, not driven, "
+                                    "for a user whose own agent drives it)"}
+
+    def export(self, scenario: Scenario, out_dir: Path, trace: Trace | None = None, *,
+               ego_story: bool = True) -> dict[str, Path]:
+        """The Scenic programs that run the scenario and its map beside them, and with a trace an
+        OpenSCENARIO replay; ``ego_story=False`` leaves the ego's story out of it (the ego is
+        placed, not driven: for a user whose own agent drives it)."""
         from regen.driving.interop.scenic import export_scenic
 
         files = export_scenic(scenario, Path(out_dir))
         if trace is not None:
             from regen.driving.interop.openscenario import export_openscenario
 
-            files.update(export_openscenario(scenario, trace, out_dir))
+            files.update(export_openscenario(scenario, trace, out_dir, ego_story=ego_story))
         return files
 
 

@@ -86,8 +86,30 @@ class ManipulationBackend(DomainBackend):
         ),
     )
     report_hints = ReportHints(animation="PyBullet camera view of the run",
-                               keyframes="frames from start to end (click for full size)",
-                               robot="robot")
+                               keyframes="frames at the start, at each stage and at the end "
+                                         "(click for full size)",
+                               robot="robot",
+                               quantities={
+                                   # placement (regen.manipulation.grounding)
+                                   "x": ("position, x (the robot faces +x)", "m"),
+                                   "y": ("position, y", "m"),
+                                   "z": ("height of its base", "m"),
+                                   "length": ("length", "m"),
+                                   "width": ("width", "m"),
+                                   "height": ("height", "m"),
+                                   "furniture": ("furniture model", ""),
+                                   "fraction": ("opening at the start (0 closed, 1 open)", ""),
+                                   "dynamic": ("rides on a moving part", ""),
+                                   "relation": ("where, relative to the reference", ""),
+                                   "reference": ("placed relative to", ""),
+                                   "support": ("stands on", ""),
+                                   "power": ("power at the start", ""),
+                                   # ManipulationWorld
+                                   "behavior": ("the robot's task", ""),
+                                   "duration": ("simulated time cap of a rollout", "s"),
+                                   "seed": ("random seed", ""),
+                                   "simulator": ("simulator", ""),
+                               })
 
     def check_behavior(self, behavior: Behavior) -> None:
         if behavior.params.get("ego_template"):

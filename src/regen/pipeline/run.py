@@ -252,7 +252,8 @@ class MainJob:
         if needs_drawing(folder, done, self.settings.pictures):
             self.emit("redrawing", name=name)
             with self.interrupts.deferred():
-                redraw_stage(self.behavior.domain, str(folder.path), self.settings.pictures)
+                redraw_stage(self.behavior.domain, str(folder.path), self.settings.pictures,
+                             self.settings.export_options)
             self.interrupts.check()
         self.outcomes.append(ScenarioOutcome(name, done, skipped=True, path=folder.path))
         self.emit("scenario_done", name=name, feasible=done.feasible, status=done.status, skipped=True)
@@ -273,11 +274,12 @@ class MainJob:
     def simulate_in_workers(self, dirs: dict[str, str]) -> None:
         """The scenarios of ``dirs`` (name -> folder) in a process pool, collected in run order;
         on an interrupt or an error the running ones finish and are kept."""
-        domain, pictures = self.behavior.domain, self.settings.pictures
+        domain, pictures, options = self.behavior.domain, self.settings.pictures, self.settings.export_options
         pool = ProcessPoolExecutor(max_workers=self.settings.workers, initializer=_worker_init,
                                    initargs=(os.getpid(),))
         try:
-            futs = {name: pool.submit(simulate_stage, domain, folder, pictures) for name, folder in dirs.items()}
+            futs = {name: pool.submit(simulate_stage, domain, folder, pictures, options)
+                    for name, folder in dirs.items()}
             for name, fut in futs.items():
                 self.collect(name, dirs[name], fut.result())
                 self.interrupts.check()
@@ -292,7 +294,8 @@ class MainJob:
         for name, folder in dirs.items():
             self.emit("simulating", name=name)
             with self.interrupts.deferred():
-                done = simulate_stage(self.behavior.domain, folder, self.settings.pictures)
+                done = simulate_stage(self.behavior.domain, folder, self.settings.pictures,
+                                      self.settings.export_options)
             self.collect(name, folder, done)
             self.interrupts.check()
 

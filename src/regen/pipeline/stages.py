@@ -134,15 +134,18 @@ def ground_stage(backend: DomainBackend, path: CausePath, llm: LLM | None, folde
 # --- stage: simulate, verify, draw, export -------------------------------------------------------
 
 
-def simulate_stage(domain: str, scenario_dir: str, pictures: bool = True) -> dict[str, Any]:
+def simulate_stage(domain: str, scenario_dir: str, pictures: bool = True,
+                   export_options: dict[str, bool] | None = None) -> dict[str, Any]:
     """Simulate, verify, draw and export one grounded scenario folder. Runs in worker processes
-    too, so it takes and returns plain data; the verdict is written last."""
+    too, so it takes and returns plain data; the verdict is written last. ``export_options``:
+    passed to the domain's export."""
     folder = ScenarioFolder(Path(scenario_dir))
     with folder.recording():  # what the domain writes here is the run's: --fresh removes it
-        return _simulate(domain, folder, pictures)
+        return _simulate(domain, folder, pictures, export_options or {})
 
 
-def _simulate(domain: str, folder: ScenarioFolder, pictures: bool) -> dict[str, Any]:
+def _simulate(domain: str, folder: ScenarioFolder, pictures: bool, export_options: dict[str, bool]
+              ) -> dict[str, Any]:
     folder.reset()
     backend = domains.make(domain)
     scenario = folder.scenario()
@@ -182,7 +185,7 @@ def _simulate(domain: str, folder: ScenarioFolder, pictures: bool) -> dict[str, 
     if judged.fsm != scenario.fsm:  # relaxed: the folder shows the FSM the verdict is about
         folder.write_scenario(judged, backend.config(judged))
     files = dict(sim.files)
-    drawn, problems = _draw(backend, judged, sim.trace, verdict, folder, pictures, timings)
+    drawn, problems = _draw(backend, judged, sim.trace, verdict, folder, pictures, timings, export_options)
     files.update(drawn)
     if problems:
         folder.write_error("\n".join(problems))
@@ -246,12 +249,13 @@ def causal_stage(backend: DomainBackend, scenario: Scenario, verdict: Verdict, f
 
 
 def _draw(backend: DomainBackend, scenario: Scenario, trace: Trace, verdict: Verdict,
-          folder: ScenarioFolder, pictures: bool, timings: dict[str, float]) -> tuple[dict[str, Path], list[str]]:
+          folder: ScenarioFolder, pictures: bool, timings: dict[str, float],
+          export_options: dict[str, bool] | None = None) -> tuple[dict[str, Path], list[str]]:
     """Pictures (when ``pictures``) and exports of a verified scenario: (role -> file, failures).
     A step's time lands in ``timings`` only when it succeeded (a resume redoes the others); a
     full disk or a read-only folder stops the run, anything else is kept in error.txt."""
     steps: list[tuple[str, Callable[[], dict[str, Path]]]] = [
-        ("export", lambda: backend.export(scenario, folder.path, trace=trace))]
+        ("export", lambda: backend.export(scenario, folder.path, trace=trace, **(export_options or {})))]
     if pictures:
         steps.insert(0, ("render", lambda: backend.render(scenario, trace, verdict, folder.path)))
     files: dict[str, Path] = {}
@@ -305,7 +309,8 @@ def needs_drawing(folder: ScenarioFolder, verdict: Verdict, pictures: bool) -> b
     return False
 
 
-def redraw_stage(domain: str, scenario_dir: str, pictures: bool = True) -> bool:
+def redraw_stage(domain: str, scenario_dir: str, pictures: bool = True,
+                 export_options: dict[str, bool] | None = None) -> bool:
     """Draw and export a finished scenario again from its files (its verdict stays); False when
     they cannot be read (then nothing is written)."""
     folder = ScenarioFolder(Path(scenario_dir))
@@ -315,7 +320,8 @@ def redraw_stage(domain: str, scenario_dir: str, pictures: bool = True) -> bool:
         return False
     timings: dict[str, float] = {}
     with folder.recording():
-        drawn, problems = _draw(domains.make(domain), scenario, trace, verdict, folder, pictures, timings)
+        drawn, problems = _draw(domains.make(domain), scenario, trace, verdict, folder, pictures, timings,
+                                export_options)
     if problems:
         folder.write_error("\n".join(problems))
     else:

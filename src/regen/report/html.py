@@ -11,6 +11,8 @@ from __future__ import annotations
 import json
 import logging
 import math
+import re
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from datetime import datetime
 from importlib import resources
@@ -23,12 +25,13 @@ from markupsafe import Markup
 from regen.core.io import atomic_write_text
 from regen.core.text import clean
 from regen.errors import ConfigError
-from regen.report.load import RunView, ScenarioView, load_run
+from regen.report.load import RunView, ScenarioView, call_purposes, load_run
 from regen.templates import environment
 
 log = logging.getLogger(__name__)
 
-__all__ = ["clean_text", "render_report", "write_report"]
+__all__ = ["CallRef", "QuantityRow", "call_ids", "clean_text", "parameter_rows", "render_report", "world_rows",
+           "write_report"]
 
 REPORT_NAME = "report.html"
 MAX_CONFIG_CHARS = 20_000  # the config block is for reading, not for copying whole traces
@@ -88,12 +91,67 @@ def stage_rows(sv: ScenarioView) -> list[StageRow]:
     return rows
 
 
-def parameter_rows(sv: ScenarioView) -> list[tuple[str, str, Any]]:
-    """(entity, parameter, value) for the solved parameters, in the scenario's order."""
+@dataclass
+class CallRef:
+    """A model call named in a scenario's world (its cache key), for people to read."""
+
+    key: str  # the full cache key (a SHA-256 hex digest)
+    purpose: str  # what it asked, from the run's model cache ('model call' when unknown)
+
+    @property
+    def short(self) -> str:
+        return self.key[:8]
+
+
+@dataclass
+class QuantityRow:
+    """One number or setting of a scenario with what it means (the domain's
+    :attr:`regen.contract.ReportHints.quantities`)."""
+
+    entity: str  # '' for a world setting
+    name: str
+    value: Any
+    meaning: str = ""
+    unit: str = ""
+    calls: list[CallRef] = field(default_factory=list)  # the value lists model calls
+
+
+_CALL_IDS = re.compile(r"[0-9a-f]{64}(?:,[0-9a-f]{64})*")
+
+
+def call_ids(value: Any) -> list[str]:
+    """The model-call cache keys a world value lists (comma-separated SHA-256 digests), or []."""
+    return value.split(",") if isinstance(value, str) and _CALL_IDS.fullmatch(value) else []
+
+
+def _row(entity: str, name: str, value: Any, quantities: Mapping[str, tuple[str, str]]) -> QuantityRow:
+    meaning, unit = quantities.get(name, ("", ""))
+    number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    return QuantityRow(entity, name, value, meaning, unit if number else "")
+
+
+def parameter_rows(sv: ScenarioView, quantities: Mapping[str, tuple[str, str]] | None = None
+                   ) -> list[QuantityRow]:
+    """The solved parameters in the scenario's order, with meaning and unit."""
     if sv.scenario is None:
         return []
-    return [(ent, name, value) for ent, params in sv.scenario.parameters.items()
+    q = quantities or {}
+    return [_row(ent, name, value, q) for ent, params in sv.scenario.parameters.items()
             for name, value in params.items()]
+
+
+def world_rows(sv: ScenarioView, quantities: Mapping[str, tuple[str, str]] | None = None,
+               purposes: Mapping[str, str] | None = None) -> list[QuantityRow]:
+    """The scenario's world settings with meaning and unit; a value listing model calls as
+    the calls (purpose and key, :func:`call_ids`)."""
+    if sv.scenario is None:
+        return []
+    rows = []
+    for name, value in sv.scenario.world.items():
+        row = _row("", name, value, quantities or {})
+        row.calls = [CallRef(k, (purposes or {}).get(k, "model call")) for k in call_ids(value)]
+        rows.append(row)
+    return rows
 
 
 # --- formatting filters -------------------------------------------------------------------------
@@ -183,13 +241,19 @@ def render_report(view: RunView) -> str:
     usage_total, usage_by = usage_rows(view.run_field("usage"))
     timings = view.run_field("timings")
     settings = view.run_field("settings")
+    quantities = dict(view.hints.quantities)
+    keys = [k for sv in view.scenarios if sv.scenario is not None
+            for v in sv.scenario.world.values() for k in call_ids(v)]
+    purposes = call_purposes(view.run_dir, list(dict.fromkeys(keys)))
     page = _environment().get_template("report.html.j2")
     return page.render(
         run=view, summary=view.summary, css=_css(),
         settings=settings if isinstance(settings, dict) else None,
         timings={str(k): v for k, v in timings.items()} if isinstance(timings, dict) else None,
         usage_total=usage_total, usage_by=usage_by,
-        stage_rows=stage_rows, parameter_rows=parameter_rows,
+        stage_rows=stage_rows,
+        parameter_rows=lambda sv: parameter_rows(sv, quantities),
+        world_rows=lambda sv: world_rows(sv, quantities, purposes),
         generated=datetime.now().astimezone().strftime("%Y-%m-%d %H:%M:%S"),
     )
 

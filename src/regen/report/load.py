@@ -8,6 +8,7 @@ and the page then shows the item as missing or unreadable.
 from __future__ import annotations
 
 import logging
+import sqlite3
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -72,6 +73,19 @@ class ScenarioView:
         if self.verdict is not None:
             return self.verdict.status
         return "unfinished" if self.verdict_problem == "missing" else "unreadable"
+
+    @property
+    def title(self) -> str:
+        """What the scenario is called in the gallery: its root cause (else its folder)."""
+        chain = self.chain
+        return chain[0] if len(chain) > 1 else self.folder
+
+    @property
+    def why(self) -> str:
+        """One line of why it ended as it did: the verdict's reason, or what is missing."""
+        if self.verdict is not None:
+            return self.verdict.reason
+        return f"verdict.json: {self.verdict_problem or 'missing'}"
 
     @property
     def relaxations(self) -> list[str]:
@@ -210,6 +224,26 @@ def load_scenario(run: RunFolder, folder: str, number: int) -> ScenarioView:
         if role not in (ANIMATION, KEYFRAMES):
             view.files.setdefault(name, href(*rel, name))
     return view
+
+
+def call_purposes(run_dir: Path, keys: list[str]) -> dict[str, str]:
+    """The purpose of each model call (its cache key) the run's model cache records
+    (``llm-cache.sqlite`` in the run folder), read only; {} when there is no such cache or it
+    cannot be read (a run with ``--cache`` elsewhere)."""
+    path = RunFolder(run_dir).cache_path
+    if not keys or not path.is_file():
+        return {}
+    try:
+        db = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True, timeout=1)
+        try:
+            marks = ",".join("?" * len(keys))
+            rows = db.execute(f"SELECT key, purpose FROM calls WHERE key IN ({marks})", keys).fetchall()
+        finally:
+            db.close()
+    except sqlite3.Error as exc:
+        log.debug("model cache %s unreadable: %s", path, exc)
+        return {}
+    return {str(k): str(v) for k, v in rows}
 
 
 def _hints(domain: str | None) -> ReportHints:

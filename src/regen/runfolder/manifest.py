@@ -30,6 +30,9 @@ class RunSettings(Model):
     workers: int = 1  # processes for simulation (does not change results)
     llm_timeout: float | None = None  # [s] per model request; None: REGEN_LLM_TIMEOUT, else 120
     pictures: bool = True  # GIFs and key frames (does not change verdicts)
+    #: options of the domain's export (``DomainBackend.export``), e.g. ``{"ego_story": False}``
+    #: for driving; they change only the exported files, never a verdict
+    export_options: dict[str, bool] = Field(default_factory=dict)
 
     #: Fields whose change changes what a run produces: a resume must keep them.
     RESULT_FIELDS: ClassVar[tuple[str, ...]] = ("llm", "depth", "max_nodes", "max_scenarios", "causes",

@@ -89,7 +89,7 @@ def test_the_backends_export_leaves_the_egos_story_out_on_request(tmp_path):
     from regen.core.trace import Trace
     from regen.driving.backend import DrivingBackend
     from regen.driving.interop.openscenario import validate_xosc
-    from regen.pipeline.stages import run_path
+    from regen.pipeline.stages import redraw_stage, run_path
 
     folder = tmp_path / "run"
     assert run_path(CHILD, folder, pictures=False).verdict.feasible
@@ -99,6 +99,9 @@ def test_the_backends_export_leaves_the_egos_story_out_on_request(tmp_path):
     assert "ego_story" in [s.get("name") for s in with_ego.iter("Story")]
     files = DrivingBackend().export(sc, tmp_path / "out", trace=tr, ego_story=False)
     assert validate_xosc(files["xosc"]) == []
+    # the stage regen generate --no-ego-story runs: the run's export options reach the export
+    assert redraw_stage("driving", str(folder), pictures=False, export_options={"ego_story": False})
+    assert [s.get("name") for s in ET.parse(folder / "scenario.xosc").getroot().iter("Story")] == ["child1_story"]
     root = ET.parse(files["xosc"]).getroot()
     assert [s.get("name") for s in root.iter("Story")] == ["child1_story"]
     named = [e.get("name") for tag in ("Maneuver", "ManeuverGroup", "Event") for e in root.iter(tag)]

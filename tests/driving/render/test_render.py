@@ -26,7 +26,9 @@ from regen.driving.render import roads as render_map
 from regen.driving.render import scenario as render  # noqa: E402
 from regen.driving.render.actors import BRAKE, EGO, LIGHT_COLORS, PARKED, actors_from_trace  # noqa: E402
 from regen.driving.render.frames import choose_view  # noqa: E402
+from regen.driving.render.legend import WORDS, legend_entries, legend_image  # noqa: E402
 from regen.errors import ConfigError  # noqa: E402
+from regen.media import HOLD_MS  # noqa: E402
 
 DT = 0.1  # [s]
 
@@ -109,10 +111,49 @@ def test_returns_the_shared_roles_under_the_domains_file_names(rendered):
 def test_gif_has_one_frame_per_tenth_of_a_second_at_640x480(rendered):
     _, trace, out = rendered
     im = Image.open(out[ANIMATION])
-    assert im.size == (640, 480)
+    legend = legend_image(legend_entries(actors_from_trace(trace), choose_view(actors_from_trace(trace))))
+    assert im.size == (640, 480 + legend.height)  # the frame, and the legend band below it
     assert im.n_frames == trace.steps  # dt = 0.1 s at 10 fps: every step is a frame
     assert im.info["duration"] == 100  # [ms]: plays in simulated real time
+    im.seek(im.n_frames - 1)
+    assert im.info["duration"] == HOLD_MS  # the end stays a moment before the loop starts over
     assert out[ANIMATION].stat().st_size < 2 * 1024 * 1024
+
+
+def test_a_legend_under_the_animation_names_what_the_run_shows(rendered):
+    _, trace, out = rendered
+    actors = actors_from_trace(trace)
+    entries = legend_entries(actors, choose_view(actors))
+    # the ego, a sedan, an ambulance with its siren on, a light, a parked car whose door opens,
+    # the ego's brake lights
+    assert {"ego", "path", "vehicle", "emergency", "parked", "door", "traffic_light", "brake", "tag",
+            "stages"} <= set(entries)
+    assert not {"pedestrian", "hazard", "gnss", "distracted", "collision"} & set(entries)
+    assert "halo" in WORDS["ego"] and "path" in WORDS["path"]
+    band = _frames(out[ANIMATION])[0][480:]
+    assert band.shape[0] >= 2 * 16  # two rows of entries at least
+    assert _mask(band, EGO, 0).sum() > 50  # the ego's swatch is drawn in the ego's colour
+    assert _mask(band, LIGHT_COLORS["red"], 0).sum() > 10
+    assert Image.open(out[KEYFRAMES]).size[1] == 480  # the key frames carry no legend
+
+
+def test_name_tags_never_cover_each_other_and_keep_off_other_actors():
+    from regen.driving.render.actors import Canvas
+    from regen.driving.render.roads import View
+
+    view = View(scale=10.0, x0=0.0, y1=42.4, width=640, height=424, follow=None)
+    img = Image.new("RGB", (640, 424))
+    f = Canvas(img, view, 0, 0)
+    cx, cy = f.px(32.0, 21.2)  # the middle of the window
+    other = (cx - 30, cy - 40, cx + 30, cy - 12)  # an actor's body right above the spot
+    f.bodies.append(other)
+    own = (cx - 10, cy - 10, cx + 10, cy + 10)
+    for k in range(7):  # seven actors at one spot: each tag must find a place of its own
+        f.label(f"pedestrian{k}", 32.0, 21.2, own, (255, 140, 0))
+    for a, rect in enumerate(f.labels):
+        assert not (rect[0] < other[2] and other[0] < rect[2] and rect[1] < other[3] and other[1] < rect[3]), rect
+        for b in f.labels[a + 1:]:
+            assert not (rect[0] < b[2] and b[0] < rect[2] and rect[1] < b[3] and b[1] < rect[3]), (rect, b)
 
 
 def test_ego_is_drawn_where_the_trace_puts_it(rendered):

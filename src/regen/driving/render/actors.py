@@ -13,21 +13,21 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
-from functools import lru_cache
-from pathlib import Path
 
 import numpy as np
-from PIL import Image, ImageDraw, ImageFont
+from PIL import Image, ImageDraw
 
 from regen.core.trace import Trace
 from regen.driving.render.roads import FRAME_W, MAP_H, View
 from regen.driving.world.actors import actor_category
 from regen.driving.world.geometry import corners, to_world
 from regen.errors import RegenError
+from regen.media import text_font
 
 log = logging.getLogger(__name__)
 
-__all__ = ["Actor", "Canvas", "actors_from_trace", "draw_actor", "draw_gnss", "text_font"]
+__all__ = ["Actor", "Canvas", "actors_from_trace", "body_box", "draw_actor", "draw_gnss", "is_on",
+           "text_font"]
 
 # Colors (RGB). The ego's fill is used by nothing else so it can be found in the pictures.
 EGO = (0, 200, 83)
@@ -75,7 +75,7 @@ class Actor:
         return None if seq is None else seq[i]
 
 
-def _is_on(value: object) -> bool:
+def is_on(value: object) -> bool:
     if isinstance(value, bool):
         return value
     if isinstance(value, (int, float)):
@@ -143,18 +143,6 @@ def actors_from_trace(trace: Trace) -> list[Actor]:
     return out
 
 
-@lru_cache(maxsize=8)
-def text_font(size: int, bold: bool = False):
-    """DejaVu Sans from matplotlib's own data (always installed with it), else Pillow's default."""
-    try:
-        import matplotlib
-
-        name = "DejaVuSans-Bold.ttf" if bold else "DejaVuSans.ttf"
-        return ImageFont.truetype(str(Path(matplotlib.get_data_path()) / "fonts" / "ttf" / name), size)
-    except OSError:
-        return ImageFont.load_default(size=size)
-
-
 def _rect(cx, cy, h, length, width, along=0.0, across=0.0) -> list[tuple[float, float]]:
     """Corners [m] of a length x width rectangle centred ``along``/``across`` from (cx, cy)."""
     return [(float(x), float(y)) for x, y in corners(cx, cy, h, length, width, along=along, across=across)]
@@ -167,7 +155,8 @@ class Canvas:
         self.img = img
         self.draw = ImageDraw.Draw(img, "RGBA")  # RGBA mode blends translucent fills
         self.view, self.left, self.top = view, left, top
-        self.labels: list[tuple[float, float, float, float]] = []
+        self.labels: list[tuple[float, float, float, float]] = []  # tags drawn [px]
+        self.bodies: list[tuple[float, float, float, float]] = []  # actors drawn [px], tags avoid them
 
     def px(self, x: float, y: float) -> tuple[float, float]:
         px, py = self.view.to_px(x, y)
@@ -184,26 +173,56 @@ class Canvas:
         px, py = self.px(x, y)
         return -pad <= px <= FRAME_W + pad and -pad <= py <= MAP_H + pad
 
-    def label(self, text: str, x: float, y: float, r_px: float, color) -> None:
-        """A name tag above the actor, moved below or aside when it would cover another tag."""
+    def label(self, text: str, x: float, y: float, box: tuple[float, float, float, float], color) -> None:
+        """A name tag beside the actor at (x, y) [m] whose body covers the pixel ``box``: above it,
+        else below, right or left, else stacked further above or below with a thin line to it,
+        on the first spot that covers no other tag and no other actor's body (:attr:`bodies`);
+        when every spot covers one, the spot that covers fewest."""
         font = text_font(11)
         px, py = self.px(x, y)
         w = self.draw.textlength(text, font=font) + 6
         h = 14
-        for dx, dy in ((0, -r_px - h - 2), (0, r_px + 2), (r_px + 4, -h / 2), (-r_px - 4 - w, -h / 2)):
+        x0, y0, x1, y1 = box
+        spots = [(px - w / 2, y0 - h - 2), (px - w / 2, y1 + 2), (x1 + 4, py - h / 2), (x0 - 4 - w, py - h / 2)]
+        for k in range(1, 5):  # stacked further away: a leader line shows whose tag it is
+            spots += [(px - w / 2, y0 - h - 2 - k * (h + 2)), (px - w / 2, y1 + 2 + k * (h + 2))]
+        best, best_cost = None, None
+        for n, (bx, by) in enumerate(spots):
             # kept inside the map window so a tag at the border stays readable
-            bx = min(max(px - (w / 2 if dx == 0 else 0) + dx, 1), FRAME_W - w - 1)
-            by = min(max(py + dy, 1), MAP_H - h - 1)
+            bx, by = min(max(bx, 1), FRAME_W - w - 1), min(max(by, 1), MAP_H - h - 1)
             rect = (bx, by, bx + w, by + h)
-            if not any(_overlap(rect, r) for r in self.labels):
+            tags = sum(_overlap(rect, r) for r in self.labels)
+            bodies = sum(_overlap(rect, b) for b in self.bodies if b != box)
+            cost = (tags, bodies, n)
+            if best_cost is None or cost < best_cost:
+                best, best_cost = (rect, n >= 4), cost
+            if tags == 0 and bodies == 0:
                 break
+        rect, far = best
         self.labels.append(rect)
+        if far:  # a leader line from the tag's nearest edge to the actor
+            ty = rect[3] if rect[3] <= py else rect[1]
+            self.draw.line([(px, py), ((rect[0] + rect[2]) / 2, ty)], fill=(*color, 220), width=1)
         self.draw.rectangle(rect, fill=(20, 20, 24, 170), outline=(*color, 255))
         self.draw.text((rect[0] + 3, rect[1] + 1), text, fill=(255, 255, 255), font=font)
 
 
 def _overlap(a, b) -> bool:
     return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+
+
+def body_box(f: Canvas, a: Actor, i: int) -> tuple[float, float, float, float]:
+    """The pixel box (left, top, right, bottom) around actor ``a``'s body at step ``i``, at least
+    as big as it is drawn (a few pixels when zoomed out)."""
+    s = f.view.scale
+    length, width = max(a.length, 8 / s), max(a.width, 5 / s)
+    if a.category in ("pedestrian", "traffic_light"):
+        r = max(5.0, 0.5 * max(length, width) * s) + 3
+        px, py = f.px(float(a.x[i]), float(a.y[i]))
+        return px - r, py - r, px + r, py + r
+    pts = [f.px(x, y) for x, y in _rect(float(a.x[i]), float(a.y[i]), float(a.heading[i]), length, width)]
+    xs, ys = [p[0] for p in pts], [p[1] for p in pts]
+    return min(xs) - 2, min(ys) - 2, max(xs) + 2, max(ys) + 2
 
 
 def _draw_vehicle(f: Canvas, a: Actor, i: int, t: float) -> None:
@@ -222,7 +241,7 @@ def _draw_vehicle(f: Canvas, a: Actor, i: int, t: float) -> None:
     s = f.view.scale
     length, width = max(a.length, 8 / s), max(a.width, 5 / s)  # never smaller than a few pixels
     body = BODY.get(a.category, OTHER)
-    siren = _is_on(a.state("siren", i))
+    siren = is_on(a.state("siren", i))
     if siren:  # a glow flashing red/blue twice a second is visible at any zoom
         glow = SIREN_RED if int(t * 4) % 2 == 0 else SIREN_BLUE
         f.disk(x, y, 0.75 * length * s, (*glow, 70))
@@ -241,11 +260,11 @@ def _draw_vehicle(f: Canvas, a: Actor, i: int, t: float) -> None:
         f.poly(_rect(x, y, h, bar_l, 0.45 * width, across=0.23 * width), left)
         f.poly(_rect(x, y, h, bar_l, 0.45 * width, across=-0.23 * width), right)
     band = max(0.3, 2.0 / s)
-    if _is_on(a.state("brake_lights", i)):
+    if is_on(a.state("brake_lights", i)):
         for side in (0.33, -0.33):
             f.poly(_rect(x, y, h, band, 0.3 * width, along=-0.5 * length + band / 2,
                          across=side * width), BRAKE, (120, 0, 0))
-    if _is_on(a.state("hazard_lights", i)) and int(t * 3) % 2 == 0:
+    if is_on(a.state("hazard_lights", i)) and int(t * 3) % 2 == 0:
         for along in (0.45, -0.45):
             for across in (0.45, -0.45):
                 f.disk(*to_world(x, y, h, along * length, across * width), max(2.5, 0.3 * s), HAZARD)
@@ -296,8 +315,9 @@ def draw_gnss(f: Canvas, a: Actor, i: int) -> None:
     # the tag goes on the far side from the true position so it does not cover the ego
     tx, ty = f.px(x, y)
     away = math.atan2(py - ty, px - tx) if (px, py) != (tx, ty) else -math.pi / 2
-    f.draw.text((px + 14 * math.cos(away) - 13, py + 14 * math.sin(away) - 6), "GNSS", fill=GNSS,
-                font=text_font(10))
+    gx0, gy0 = px + 14 * math.cos(away) - 13, py + 14 * math.sin(away) - 6
+    f.draw.text((gx0, gy0), "GNSS", fill=GNSS, font=text_font(10))
+    f.labels.append((gx0, gy0, gx0 + 28, gy0 + 12))  # name tags keep off it
 
 
 def _draw_offscreen(f: Canvas, a: Actor, i: int) -> None:

@@ -1,5 +1,7 @@
 """One frame of a driving run: the map window around the actors, their name tags, a scale bar
-and a caption with the time, the ego's speed, the verdict and one box per FSM stage.
+and a caption with the time, the ego's speed, the verdict and one box per FSM stage (the caption
+band every domain's frames share, :func:`regen.media.draw_caption`); an animation's frames also
+carry the legend band (:mod:`regen.driving.render.legend`).
 
 Also what the frames have in common: the view (fixed, or following the ego on long runs), the
 key-frame picks (start, each FSM stage reached, end) and one GIF palette for all frames.
@@ -11,8 +13,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from PIL import Image, ImageDraw
+from PIL import Image
 
+from regen import media
 from regen.core.scenario import Scenario
 from regen.core.trace import Trace
 from regen.core.verdict import Verdict
@@ -36,10 +39,12 @@ from regen.driving.render.actors import (
     VEHICLE,
     Actor,
     Canvas,
+    body_box,
     draw_actor,
     draw_gnss,
     text_font,
 )
+from regen.driving.render.legend import Legend
 from regen.driving.render.roads import (
     CROSSING,
     FRAME_H,
@@ -64,12 +69,9 @@ MAX_SCALE = 14.0  # closest zoom [px/m]; a car is then ~65 px long
 FOLLOW_SCALE = 9.0  # zoom of the ego-following view [px/m]: ~71 m x 47 m visible
 MAX_BACKGROUND_PX = 6000  # cap on the pre-rendered background's side [px]
 
-# Colors (RGB) of the caption.
-CAPTION_BG = (28, 30, 36)
-CAPTION_FG = (240, 240, 240)
-STAGE_DONE = (0, 190, 90)
-STAGE_TODO = (90, 92, 100)
-STAGE_FAILED = (220, 50, 50)
+# Colors (RGB) of the caption: the band every domain's frames share.
+CAPTION_BG, CAPTION_FG = media.CAPTION_BG, media.CAPTION_FG
+STAGE_DONE, STAGE_TODO, STAGE_FAILED = media.STAGE_DONE, media.STAGE_TODO, media.STAGE_FAILED
 
 
 def choose_view(actors: list[Actor]) -> View:
@@ -121,6 +123,11 @@ class Story:
     failed_stage: int | None
     t_end: float
 
+    @property
+    def bar(self) -> media.StageBar:
+        """What the caption band shows."""
+        return media.StageBar(self.stages, self.status, self.failed_stage, self.t_end)
+
 
 def story_of(scenario: Scenario, trace: Trace, verdict: Verdict) -> Story:
     """What the caption tells: the verdict's stages, or the FSM's when the verdict has none."""
@@ -132,61 +139,21 @@ def story_of(scenario: Scenario, trace: Trace, verdict: Verdict) -> Story:
                   verdict.status, verdict.first_unmet_stage, float(trace.times[-1]))
 
 
-def _fit(draw: ImageDraw.ImageDraw, text: str, font, width: float) -> str:
-    if draw.textlength(text, font=font) <= width:
-        return text
-    while text and draw.textlength(text + "…", font=font) > width:
-        text = text[:-1]
-    return text + "…"
-
-
 def _caption(img: Image.Image, story: Story, t: float, ego_speed: float | None) -> None:
-    draw = ImageDraw.Draw(img)
-    draw.rectangle([0, MAP_H, FRAME_W, FRAME_H], fill=CAPTION_BG)
-    big, small = text_font(13, bold=True), text_font(11)
-    y1, y2 = MAP_H + 6, MAP_H + 31
-    left = f"t = {t:5.1f} s / {story.t_end:.1f} s"
-    if ego_speed is not None:
-        left += f"   ego {ego_speed:4.1f} m/s"
-    draw.text((8, y1), left, fill=CAPTION_FG, font=big)
-    ok = story.status == "verified"
-    status = story.status.replace("_", " ")
-    if story.failed_stage is not None and not ok:
-        status += f" (stage {story.failed_stage} unmet)"
-    sw = draw.textlength(status, font=small)
-    draw.text((FRAME_W - sw - 8, y1 + 2), status, fill=STAGE_DONE if ok else STAGE_FAILED, font=small)
-    # one box per FSM stage: green once reached, red for the stage that never was (at the end)
-    x = 8
-    current = None
-    at_end = t >= story.t_end - 1e-9
-    for index, reached, _ in story.stages:
-        done = reached is not None and reached <= t + 1e-9
-        if done:
-            current = (index, reached)
-        fill = STAGE_DONE if done else (STAGE_FAILED if at_end and index == story.failed_stage
-                                        else STAGE_TODO)
-        draw.rectangle([x, y2, x + 16, y2 + 16], fill=fill, outline=(200, 200, 200))
-        num = str(index)
-        draw.text((x + 8 - draw.textlength(num, font=small) / 2, y2 + 2), num, fill=(255, 255, 255),
-                  font=small)
-        x += 20
-    if current is None:
-        text = "no stage reached yet" if story.stages else "no FSM stages"
-    else:
-        conds = next(c for k, _, c in story.stages if k == current[0])
-        text = f"stage {current[0]}/{len(story.stages)} at {current[1]:.1f} s: {conds}"
-    draw.text((x + 6, y2 + 1), _fit(draw, text, small, FRAME_W - x - 14), fill=CAPTION_FG, font=small)
+    media.draw_caption(img, MAP_H, story.bar, t, "" if ego_speed is None else f"ego {ego_speed:4.1f} m/s")
 
 
 def frame(bg: Image.Image, view: View, actors: list[Actor], story: Story, times: np.ndarray,
-           i: int, title: str | None = None) -> Image.Image:
-    """One full frame (map window and caption) at step ``i``."""
+           i: int, title: str | None = None, legend: Legend | None = None) -> Image.Image:
+    """One full frame (map window and caption, and the ``legend`` band below them) at step ``i``."""
     lead = next((a for a in actors if a.name == view.follow), None)
     if lead is not None:
         left, top = view.window(float(lead.x[i]), float(lead.y[i]))
     else:
         left, top = 0, 0
-    img = Image.new("RGB", (FRAME_W, FRAME_H), GRASS)
+    img = Image.new("RGB", (FRAME_W, FRAME_H + (legend.height if legend else 0)), GRASS)
+    if legend is not None:
+        img.paste(legend.image, (0, FRAME_H))
     img.paste(bg.crop((left, top, left + FRAME_W, top + MAP_H)), (0, 0))
     f = Canvas(img, view, left, top)
     t = float(times[i])
@@ -200,42 +167,23 @@ def frame(bg: Image.Image, view: View, actors: list[Actor], story: Story, times:
             shown.append(a)
     if ego is not None:
         draw_gnss(f, ego, i)
+    boxes = {a.name: body_box(f, a, i) for a in shown}
+    f.bodies.extend(boxes.values())  # a tag covers no actor when it can help it
     for a in reversed(shown):  # ego first: its tag gets the best spot
-        r = 0.5 * max(a.length, a.width) * view.scale + 2
         color = BODY.get(a.category, (240, 240, 240))
         mind = a.state("driver_state", i)  # a mental state that changes what it does is shown
-        f.label(a.name + (f" ({mind})" if mind == "distracted" else ""), float(a.x[i]), float(a.y[i]), r, color)
+        f.label(a.name + (f" ({mind})" if mind == "distracted" else ""), float(a.x[i]), float(a.y[i]),
+                boxes[a.name], color)
     _draw_scale_bar(f)
     if title:
-        font = text_font(13, bold=True)
-        w = f.draw.textlength(title, font=font)
-        f.draw.rectangle([0, 0, w + 12, 20], fill=(20, 20, 24, 200))
-        f.draw.text((6, 2), title, fill=(255, 255, 255), font=font)
+        media.draw_title(img, title)
     _caption(img, story, t, float(ego.speed[i]) if ego is not None else None)
     return img
 
 
 def keyframe_steps(times: np.ndarray, story: Story, count: int) -> list[tuple[int, str]]:
     """Start, the step where each FSM stage was reached, and the end (4-``count`` tiles)."""
-    n = len(times)
-    picks: dict[int, str] = {0: "start"}
-    reached = [(k, r) for k, r, _ in story.stages if r is not None]
-    if len(reached) > count - 2:  # too many stages: keep evenly spread ones
-        sel = np.linspace(0, len(reached) - 1, count - 2).round().astype(int)
-        reached = [reached[j] for j in sorted(set(sel))]
-    for k, r in reached:
-        i = int(min(np.searchsorted(times, r - 1e-9), n - 1))
-        picks.setdefault(i, f"stage {k} reached")
-    picks.setdefault(n - 1, "end")
-    target = min(4, n)
-    while len(picks) < target:  # fill the widest gap so the strip shows the whole run
-        idx = sorted(picks)
-        gaps = [(idx[j + 1] - idx[j], j) for j in range(len(idx) - 1)]
-        width, j = max(gaps)
-        if width < 2:
-            break
-        picks[idx[j] + width // 2] = "during"
-    return sorted(picks.items())[:count]
+    return media.keyframe_steps(times, story.stages, count)
 
 
 def palette(bg: Image.Image) -> Image.Image:

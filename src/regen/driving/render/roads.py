@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw
 
+from regen import media
 from regen.core.scenario import Scenario
 from regen.core.trace import Trace
 from regen.driving.world.setting import DrivingWorld
@@ -26,7 +27,7 @@ log = logging.getLogger(__name__)
 __all__ = ["MapLayers", "View", "background", "map_layers"]
 
 FRAME_W, FRAME_H = 640, 480  # output frame [px]
-CAPTION_H = 56  # caption band below the map [px]
+CAPTION_H = media.CAPTION_H  # caption band below the map [px]
 MAP_H = FRAME_H - CAPTION_H  # map area [px]
 
 # Colors (RGB) of the ground.

@@ -22,6 +22,7 @@ from regen.core.trace import Trace
 from regen.core.verdict import Verdict
 from regen.driving.render.actors import actors_from_trace
 from regen.driving.render.frames import choose_view, frame, keyframe_steps, palette, story_of
+from regen.driving.render.legend import legend_entries, legend_image
 from regen.driving.render.roads import background, map_layers
 from regen.errors import ConfigError
 
@@ -66,8 +67,9 @@ def render_scenario(scenario: Scenario, trace: Trace, verdict: Verdict, out_dir:
     """Draw a driving run: ``bird_eye.gif`` and ``keyframes.png`` in ``out_dir``.
 
     The GIF plays in simulated real time at about ``options.fps`` frames per simulated second
-    (at most ``options.max_frames`` frames) at 640x480 px; the strip shows 4-6 frames of
-    640x480 px side by side (start, each FSM stage reached, end) separated by 4 px.
+    (at most ``options.max_frames`` frames; the last one held :data:`regen.media.HOLD_MS`) at
+    640x480 px plus the legend band below (:mod:`regen.driving.render.legend`); the strip shows
+    4-6 frames of 640x480 px side by side (start, each FSM stage reached, end) separated by 4 px.
     Returns ``{ANIMATION: gif path, KEYFRAMES: png path}`` (roles of :mod:`regen.domains`).
     A trace without steps or actors raises :class:`ConfigError`; a map that cannot be read is
     drawn as plain ground with a warning.
@@ -78,9 +80,11 @@ def render_scenario(scenario: Scenario, trace: Trace, verdict: Verdict, out_dir:
     story = story_of(scenario, trace, verdict)
 
     steps = media.animation_steps(times, options.animation)
+    legend = legend_image(legend_entries(actors, view))
     gif = media.write_gif(out_dir / ANIMATION_FILE,
-                          (frame(bg, view, actors, story, times, i) for i in steps),
-                          media.frame_ms(times, steps, options.animation), palette=palette(bg))
+                          (frame(bg, view, actors, story, times, i, legend=legend) for i in steps),
+                          media.held(len(steps), media.frame_ms(times, steps, options.animation)),
+                          palette=palette(bg))
 
     picks = keyframe_steps(times, story, max(1, options.keyframes))
     tiles = [frame(bg, view, actors, story, times, i, title=title) for i, title in picks]

@@ -2,10 +2,13 @@
 
 The scenario's own GIF (:mod:`regen.driving.render.scenario`) shows the scripted template ego that
 verified; a failed test needs the episode of the policy under test. It is drawn with the same
-map, actors and caption, except that the caption tells the test's verdict and the ego's
+map, actors, caption and legend, except that the caption tells the test's verdict and the ego's
 expected states as the policy reached them, and from the step of a collision on a red ring marks
-where it happened. The shared :func:`regen.harness.pictures.keep_failures` asks for it through
-the driving harness (:meth:`regen.driving.testing.harness.DrivingHarness.failure_picture`).
+where it happened. The GIF ends :data:`HOLD_S` after the failure (a collision, or the first
+incident of the kind that failed the test) and holds its last frame, so it shows the failure
+and not what the simulation did after it. The shared :func:`regen.harness.pictures.keep_failures`
+asks for it through the driving harness
+(:meth:`regen.driving.testing.harness.DrivingHarness.failure_picture`).
 """
 
 from __future__ import annotations
@@ -22,8 +25,10 @@ from regen.core.scenario import Scenario
 from regen.core.trace import Trace
 from regen.driving.render.actors import Actor, Canvas, text_font
 from regen.driving.render.frames import STAGE_FAILED, Story, frame, palette
+from regen.driving.render.legend import legend_entries, legend_image
 from regen.driving.render.roads import MAP_H, View
 from regen.driving.render.scenario import RenderOptions, scene
+from regen.driving.verify.collisions import analyze
 from regen.driving.world.setting import DrivingWorld
 from regen.harness.pictures import FAILURE_GIF, case_folder
 
@@ -32,10 +37,11 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 
-__all__ = ["render_failure"]
+__all__ = ["HOLD_S", "failure_time", "render_failure"]
 
 MARK_RADIUS = 2.5  # [m] of the ring around a collision
 MARK_MIN_PX = 12  # [px] the ring stays visible when zoomed out
+HOLD_S = 1.0  # [s] of the episode shown after the failure
 
 
 def story_of_case(scenario: Scenario, trace: Trace, case: CaseResult, policy: str) -> Story:
@@ -87,11 +93,25 @@ def _mark_collision(img: Image.Image, view: View, actors: list[Actor], i: int, h
     return img
 
 
+def failure_time(trace: Trace, case: CaseResult) -> float | None:
+    """When the test failed [s]: its collision, else the ego's first incident of the kind that
+    failed it (a red light, leaving the road); None when it failed over the whole episode (a
+    state never reached) or the policy's own failure ended the episode."""
+    if case.collision and case.collision_time is not None:
+        return float(case.collision_time)
+    if not case.cause or case.cause == "state_not_reached" or case.cause.startswith("policy_"):
+        return None
+    hits = [e.t for e in analyze(trace, ego="ego").events if e.kind == case.cause and "ego" in e.actors]
+    return float(min(hits)) if hits else None
+
+
 def render_failure(scenario: Scenario, trace: Trace, case: CaseResult, out_dir: Path, *,
                    policy: str = "policy", options: RenderOptions | None = None) -> Path:
-    """Draw a failed test's episode as ``out_dir/failure.gif`` (640x480 px, about
-    ``options.fps`` frames per simulated second, played in simulated real time); the frame of
-    the collision is always one of them. ConfigError for a trace with nothing to draw."""
+    """Draw a failed test's episode as ``out_dir/failure.gif`` (640x480 px and the legend band,
+    about ``options.fps`` frames per simulated second, played in simulated real time) up to
+    :data:`HOLD_S` after the failure (:func:`failure_time`), its last frame held
+    :data:`regen.media.HOLD_MS`; the frame of the collision is always one of them. ConfigError
+    for a trace with nothing to draw."""
     options = options or RenderOptions()
     actors, times, view, bg = scene(scenario, trace, f"test {case.scenario}")
     story = story_of_case(scenario, trace, case, policy)
@@ -100,15 +120,21 @@ def render_failure(scenario: Scenario, trace: Trace, case: CaseResult, out_dir: 
     if case.collision and case.collision_time is not None:
         hit = int(min(np.searchsorted(times, case.collision_time - 1e-9), len(times) - 1))
         steps = sorted({*steps, hit})
+    failed_at = failure_time(trace, case)
+    if failed_at is not None:
+        steps = media.steps_until(times, steps, failed_at + HOLD_S)
     pair = ("ego", case.collision_with or "")
+    legend = legend_image(legend_entries(actors, view, collision=hit is not None))
 
     def frames():
         for i in steps:
-            img = frame(bg, view, actors, story, times, i)
+            img = frame(bg, view, actors, story, times, i, legend=legend)
             yield (img if hit is None or i < hit
                    else _mark_collision(img, view, actors, i, hit, pair, float(times[hit])))
 
     out = media.write_gif(Path(out_dir) / FAILURE_GIF, frames(),
-                          media.frame_ms(times, steps, options.animation), palette=palette(bg))
-    log.info("rendered the failed test %s: %d frames", case_folder(case), len(steps))
+                          media.held(len(steps), media.frame_ms(times, steps, options.animation)),
+                          palette=palette(bg))
+    log.info("rendered the failed test %s: %d frames up to t = %.1f s", case_folder(case), len(steps),
+             float(times[steps[-1]]))
     return out

@@ -34,7 +34,6 @@ DISPLACE_TOL = 0.05  # [m] horizontal displacement of a context object that fail
 TILT_TOL = 0.35  # [rad] tilt of a context object that counts as knocked over
 ROBOT_MOTION = frozenset({"ee_near"})  # predicates about the robot's own motion, not the world
 GOAL_STATE = "task_done"  # the FSM state holding the behavior's success predicates
-PICTURE_FRAMES = 16
 
 
 def _living(scenario: Scenario) -> set[str]:
@@ -132,25 +131,32 @@ class ManipulationHarness(PolicyHarness):
 
     def failure_picture(self, scenario: Scenario, episode: Episode, prepared: Any, case: Any,
                         policy: str, out: Path) -> Path | None:
-        """A GIF of the episode (PyBullet camera, as the run's pictures) with the failure written
-        on every frame."""
-        from PIL import ImageDraw
-
-        from regen import media
-        from regen.manipulation.render.view import GIF_FRAME_MS, render_frames
+        """A GIF of the episode (PyBullet camera and stage bar, as the run's pictures) with the
+        failure written across the top, ending a second after the failure
+        (:func:`regen.manipulation.render.view.render_failure`)."""
+        from regen.manipulation.render.view import render_failure
 
         trace = episode.trace
         if trace is None or not trace.times:
             return None
         why = str(getattr(case, "message", "") or episode.failure or getattr(case, "cause", "") or "failed")
-        frames = render_frames(scenario, trace, media.spread(trace.steps, PICTURE_FRAMES))
-        for img in frames:
-            d = ImageDraw.Draw(img)
-            d.rectangle((0, 0, img.width, 13), fill=(170, 0, 0))
-            d.text((3, 1), f"{policy}: {why}"[:60], fill=(255, 255, 255))
-        out = Path(out)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        return media.write_gif(out, frames, GIF_FRAME_MS)
+        cause = str(getattr(case, "cause", "") or episode.failure_kind or "failed").replace("_", " ")
+        stages = [(k, s.reached_at, ", ".join(s.conditions))
+                  for k, s in enumerate(getattr(case, "robot_stages", None) or [], start=1)]
+        return render_failure(scenario, trace, Path(out), stages=stages, status=f"{policy}: {cause}",
+                              banner=f"{policy}: {why}", until=self._failure_time(scenario, trace, case, episode))
+
+    def _failure_time(self, scenario: Scenario, trace: Trace, case: Any, episode: Episode) -> float | None:
+        """When the test failed [s]: its collision, else its first incident of the kind that
+        failed it, else when the policy failed; None: over the whole episode (a state never
+        reached, the time budget)."""
+        if getattr(case, "collision", False) and getattr(case, "collision_time", None) is not None:
+            return float(case.collision_time)
+        kind = getattr(case, "cause", None)
+        hits = [i.t for i in self.incidents(scenario, trace) if kind and i.kind == kind and i.kind != "time_budget"]
+        if hits:
+            return min(hits)
+        return episode.failure_time
 
 
 # --- incidents from a trace -----------------------------------------------------------------------
