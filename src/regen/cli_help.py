@@ -129,38 +129,34 @@ def _usage(self: Any, ctx: Any) -> list[str]:
     return pieces
 
 
-class RegenCommand(TyperCommand):
-    """A command whose help shows flags as flags and arguments by name (see the module)."""
+class NamedParams:
+    """Mixed into a command or group: flags shown as flags and arguments by name (see the module)."""
+
+    params: list[Any]
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         _named(self.params)
 
     def get_help_option(self, ctx: Any) -> Any:
-        option = super().get_help_option(ctx)
+        option = super().get_help_option(ctx)  # type: ignore[misc]
         if option is not None:
             _named([option])
         return option
+
+
+class RegenCommand(NamedParams, TyperCommand):
+    """A command whose help shows flags as flags and arguments by name (see the module)."""
 
     def collect_usage_pieces(self, ctx: Any) -> list[str]:
         return _usage(self, ctx)
 
 
-class RegenGroup(TyperGroup):
+class RegenGroup(NamedParams, TyperGroup):
     """A group of commands whose help shows flags as flags (see the module)."""
-
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
-        super().__init__(*args, **kwargs)
-        _named(self.params)
-
-    def get_help_option(self, ctx: Any) -> Any:
-        option = super().get_help_option(ctx)
-        if option is not None:
-            _named([option])
-        return option
 
 
 __all__ = ["CANDIDATE_HELP", "CAUSE_HELP", "DOMAIN_METAVAR", "EXAMPLES", "FILE_METAVAR", "FOLDER_METAVAR",
            "FRESH_HELP", "LLM_HELP", "LLM_MODELS", "LLM_TIMEOUT_HELP", "MODEL_METAVAR", "PICTURES_HELP", "REPLAY_HELP",
-           "RUN_OUT_HELP", "RegenCommand", "RegenGroup", "TRAJECTORY_HELP", "examples", "group_help",
+           "RUN_OUT_HELP", "NamedParams", "RegenCommand", "RegenGroup", "TRAJECTORY_HELP", "examples", "group_help",
            "help_for", "llm_help", "package_version"]
