@@ -175,3 +175,11 @@ def test_no_ego_story_is_refused_where_the_export_has_no_ego_story(tmp_path):
                                    "--out", str(tmp_path / "run"), "--llm", "none"], env={"COLUMNS": "200"})
     assert res.exit_code == 2 and "--no-ego-story" in res.output and "manipulation" in res.output, res.output
     assert not (tmp_path / "run").exists()
+
+
+def test_the_driving_assets_table_shows_the_carla_blueprints():
+    wide = CliRunner().invoke(app, ["assets", "driving"], env={"COLUMNS": "250"})
+    assert wide.exit_code == 0, wide.output
+    assert "CARLA blueprint" in wide.output and "vehicle.diamondback.century" in wide.output
+    home = CliRunner().invoke(app, ["assets", "manipulation"], env={"COLUMNS": "250"})
+    assert home.exit_code == 0 and "CARLA" not in home.output  # a database with no blueprints has no column

@@ -122,13 +122,14 @@ def assets_cmd(domain: str = typer.Argument(..., metavar="DOMAIN", help=f"A doma
         console.print_json(db.model_dump_json())
         return
     table = Table(title=shown(f"{db.name} assets ({db.simulator})"))
-    for col in ("category", "asset", "properties", "behaviors"):
+    blueprints = any(spec.blueprint for spec in db.assets.values())  # a database that exports to CARLA
+    for col in ("category", "asset", "properties", "behaviors") + (("CARLA blueprint",) if blueprints else ()):
         table.add_column(col)
     for cat, members in db.categories.items():
         for a in members:
             spec = db.assets[a]
-            table.add_row(shown(cat), shown(a), shown(", ".join(spec.properties)),
-                          shown(", ".join(spec.behaviors)))
+            table.add_row(shown(cat), shown(a), shown(", ".join(spec.properties)), shown(", ".join(spec.behaviors)),
+                          *((shown(spec.blueprint or "-"),) if blueprints else ()))
     console.print(table)
 
 
