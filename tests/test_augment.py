@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 from driving_chains import chain
+from manipulation_chains import pet_door_path
 from typer.testing import CliRunner
 
 pytest.importorskip("scenic")
@@ -96,13 +97,7 @@ def test_an_addition_is_judged_as_a_cause_of_the_behavior_and_the_judge_never_ov
 
 def test_a_manipulation_scene_is_shown_a_manipulation_example(tmp_path, monkeypatch):
     # a manipulation scene was shown a cyclist swerving into a lane as the example of an addition
-    from regen.core import Behavior, CausePath, PathEntity
-    from regen.manipulation.world.tasks import BEHAVIORS
-
-    b = BEHAVIORS["open_door"]
-    pet = CausePath(behavior=Behavior(text=b.text, domain="manipulation", params={"reward": b.id}),
-                    events=["the pet wants to go out", b.text],
-                    entities=[PathEntity(asset="pet", event="the pet wants to go out")])
+    pet = pet_door_path()
     folder = tmp_path / "run" / "scenarios" / "01-pet"
     assert run_path(pet, folder, pictures=False).verdict.feasible
     res, provider = _augment(monkeypatch, folder, {"add": [], "irrelevant": []}, "--out", str(tmp_path / "aug"))

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from driving_chains import FEASIBLE, chain
+from manipulation_chains import pet_door_path
 from typer.testing import CliRunner
 
 pytest.importorskip("scenic")
@@ -209,13 +210,7 @@ def test_bad_edits_are_one_line(front_car, tmp_path, args, words):
 
 
 def test_a_manipulation_context_removed_leaves_the_task_unexplained(tmp_path):
-    from regen.core import Behavior, CausePath, PathEntity
-    from regen.manipulation.world.tasks import BEHAVIORS
-
-    b = BEHAVIORS["open_door"]
-    pet = CausePath(behavior=Behavior(text=b.text, domain="manipulation", params={"reward": b.id}),
-                    events=["the pet wants to go out", b.text],
-                    entities=[PathEntity(asset="pet", event="the pet wants to go out")])
+    pet = pet_door_path()
     folder = tmp_path / "run" / "scenarios" / "01-pet"
     assert run_path(pet, folder, pictures=False).verdict.feasible
     res = _whatif(folder, "--remove", "pet1", "--no-pictures", "--out", str(tmp_path / "wi"))
@@ -249,13 +244,7 @@ def test_an_added_cause_is_bound_by_the_states_and_motion_its_words_name(tmp_pat
 
 def test_a_manipulation_question_is_shown_manipulation_examples(tmp_path, monkeypatch):
     # a manipulation scene was shown brake lights and a cyclist as the worked examples
-    from regen.core import Behavior, CausePath, PathEntity
-    from regen.manipulation.world.tasks import BEHAVIORS
-
-    b = BEHAVIORS["open_door"]
-    pet = CausePath(behavior=Behavior(text=b.text, domain="manipulation", params={"reward": b.id}),
-                    events=["the pet wants to go out", b.text],
-                    entities=[PathEntity(asset="pet", event="the pet wants to go out")])
+    pet = pet_door_path()
     folder = tmp_path / "run" / "scenarios" / "01-pet"
     assert run_path(pet, folder, pictures=False).verdict.feasible
     provider = _queued(monkeypatch, {"edits": [{"op": "remove", "entity": "pet1"}]})
