@@ -280,6 +280,7 @@ def generate_cmd(
     """The main job: behavior -> causal graph -> scenarios -> simulation -> verdicts -> report."""
     from regen.errors import ConfigError
     from regen.pipeline import generate
+    from regen.pipeline.request import behavior_to_generate, export_options
     from regen.progress import make_progress
     from regen.promises.folders import out_folder
     from regen.runfolder import RunSettings
@@ -287,13 +288,15 @@ def generate_cmd(
     out_dir = out_folder(out)
     if log not in ("rich", "quiet", "jsonl"):
         raise ConfigError(f"--log must be rich, quiet or jsonl, not {log!r}")
-    b = _behavior_to_generate(behavior, domain, template=template, reward=reward, trajectory=trajectory,
-                              map_name=map_name)
+    b, lines = behavior_to_generate(behavior, domain, template=template, reward=reward, trajectory=trajectory,
+                                    map_name=map_name)
+    for line in lines:
+        err_console.print(shown(line))
     settings = RunSettings(llm=llm, depth=depth, max_nodes=max_nodes, max_scenarios=scenarios,
                            causes=causes, prior=prior, candidates=candidate or [],
                            forced_causes=cause or [], seed=seed,
                            workers=workers, pictures=pictures, llm_timeout=llm_timeout,
-                           export_options=_export_options(b.domain, no_ego_story))
+                           export_options=export_options(b.domain, no_ego_story))
     with make_progress(log, console=err_console, out=console) as progress:
         try:
             result = generate(b, out_dir, settings=settings, replay=replay, fresh=fresh,
@@ -306,46 +309,53 @@ def generate_cmd(
         _print_generated(result, out_dir)
 
 
-def _export_options(domain: str, no_ego_story: bool) -> dict[str, bool]:
-    """The run's export options from the flags; ConfigError when the domain's export takes none such."""
+@app.command("batch", **help_for("batch"))
+def batch_cmd(
+    spec: str = typer.Argument(..., metavar="SPEC.yaml", help="The batch spec: a YAML mapping with 'behaviors:', "
+                               "a list of entries with text, domain, scenarios and any 'regen generate' "
+                               "setting (docs/batch.md)"),
+    out: str = typer.Option(..., "--out", "-o", metavar=FOLDER_METAVAR, help="The batch folder: one run folder "
+                            "per behavior, batch.json, summary.json and report.html"),
+    ray: str = typer.Option(None, "--ray", metavar="auto|ADDRESS", help="Run the scenarios as Ray tasks on this "
+                            "cluster (HOST:PORT, or auto: the cluster of this machine, else a local one); "
+                            "needs the scale extra"),
+    workers: int = typer.Option(None, "--workers", min=1, max=256, help="Simulation processes (default: the "
+                                "machine's cores); with --ray 'auto' and no cluster, the local cluster's CPUs"),
+    replay: ReplayOption = False,
+    fresh: bool = typer.Option(False, "--fresh", help="Start the batch over: each run's results are removed "
+                               "(their model caches are kept)"),
+    log: str = typer.Option("rich", "--log", help="Progress on stderr: rich (a live table in a terminal, plain "
+                            "lines in a log or pipe), quiet, or jsonl (the events on stdout)"),
+) -> None:
+    """Many behaviors from one spec: each into the usual run folder, scenarios simulated on a
+    process pool or a Ray cluster, one summary report over all of them."""
+    from regen.batch import run_batch
+    from regen.batch.progress import make_batch_progress
     from regen.errors import ConfigError
+    from regen.promises.folders import out_folder
 
-    if not no_ego_story:
-        return {}
-    if "ego_story" not in domains.make(domain).export_options:
-        raise ConfigError(f"--no-ego-story: the {domain} domain's export has no ego story; leave the flag out")
-    return {"ego_story": False}
-
-
-def _behavior_to_generate(behavior: str | None, domain: str, *, template: str | None, reward: str | None,
-                          trajectory: str | None, map_name: str | None):
-    """The behavior ``regen generate`` explains: the text with the ego template (--ego) or reward
-    (--reward) it names, or what a recorded ego trajectory shows (its lines told on stderr)."""
-    from regen.core.behavior import make_behavior
-    from regen.errors import ConfigError
-
-    extra: dict[str, Any] = {}
-    if template:
-        extra["ego_template"] = template
-    if reward:
-        extra["reward"] = reward
-    if trajectory is not None:
-        if template:
-            raise ConfigError("--ego and --ego-trajectory both say what the ego does; give one")
-        recorder = domains.make(domain).recorder()
-        if recorder is None:
-            raise ConfigError(f"the {domain} domain takes no recorded trajectory; give the behavior as text")
-        recorded = recorder.read(trajectory, text=behavior, options={} if map_name is None else {"map": map_name})
-        behavior = recorded.text
-        extra.update(recorded.params)
-        for line in recorded.lines:
-            err_console.print(shown(line))
-    elif map_name is not None:
-        raise ConfigError("--map says which map an --ego-trajectory file's coordinates are in; give the file too")
-    elif behavior is None:
-        raise ConfigError("give the behavior as text (e.g. 'the ego-vehicle stops abruptly') or a recorded "
-                          "trajectory with --ego-trajectory FILE")
-    return make_behavior(behavior, domain, **extra)
+    out_dir = out_folder(out)
+    if log not in ("rich", "quiet", "jsonl"):
+        raise ConfigError(f"--log must be rich, quiet or jsonl, not {log!r}")
+    with make_batch_progress(log, console=err_console, out=console) as progress:
+        try:
+            record = run_batch(spec, out_dir, ray=ray, workers=workers, replay=replay, fresh=fresh,
+                               on_event=progress.on_event)
+        except KeyboardInterrupt:
+            err_console.print(f"[yellow]interrupted: finished scenarios are saved in {shown(out)}; "
+                              "run the same command again to resume[/]")
+            raise typer.Exit(130) from None
+    if log == "jsonl":
+        return
+    for b in record.behaviors:
+        colour = {"done": "green", "failed": "red"}.get(b.status, "yellow")
+        lost = f"; {len(b.failed_scenarios)} not simulated (worker died)" if b.failed_scenarios else ""
+        console.print(f"[{colour}]{shown(b.status)}[/] {shown(b.folder)}{shown(lost)}"
+                      + (f": {shown(b.message)}" if b.message and b.status != "done" else ""))
+    console.print(f"[bold]batch {shown(record.status)}[/] in {record.wall_seconds:.0f} s; report: "
+                  f"{shown(str(out_dir / 'report.html'))}")
+    if record.status == "failed":
+        raise typer.Exit(1)
 
 
 def _print_generated(result, out_dir) -> None:

@@ -13,10 +13,8 @@ from __future__ import annotations
 
 import contextlib
 import json
-import os
 import time
 from collections.abc import Callable, Collection
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -39,6 +37,7 @@ from regen.pipeline.stages import (
     simulate_stage,
 )
 from regen.pipeline.summary import Event, RunResult, finish
+from regen.pipeline.tasks import ProcessTasks, ScenarioTasks, WorkerDied
 from regen.promises.names import slug
 from regen.promises.secrets import redact
 from regen.runfolder import (
@@ -71,24 +70,6 @@ def folder_names(paths: list[CausePath]) -> list[str]:
     """Scenario folder names from the model's cause texts: slugged (:mod:`regen.promises.names`),
     made unique by their place in run order."""
     return [f"{i:02d}-{slug(p.events[0], fallback='scenario')}" for i, p in enumerate(paths, start=1)]
-
-
-def _worker_init(parent: int) -> None:
-    """In a simulation worker: die with the main process (a killed run leaves no worker behind,
-    writing into its folder), and leave Ctrl-C to the main process, which stops the pool."""
-    import signal
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        import ctypes
-
-        libc = ctypes.CDLL(None, use_errno=True)
-        PR_SET_PDEATHSIG = 1  # Linux prctl option
-        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
-    except (OSError, AttributeError):  # not Linux: workers end when the pool's pipe closes
-        pass
-    if os.getppid() != parent:  # the main process died before prctl took effect
-        os._exit(1)
 
 
 # --- the main job --------------------------------------------------------------------------------
@@ -130,9 +111,13 @@ class MainJob:
 
     def __init__(self, run: RunFolder, manifest: RunManifest, backend: DomainBackend, settings: RunSettings,
                  interrupts: Interrupts, *, llm: LLM | None = None, replay: bool = False,
-                 on_event: Callable[[Event], None] | None = None):
+                 on_event: Callable[[Event], None] | None = None, tasks: ScenarioTasks | None = None,
+                 model_gate: Callable[[], contextlib.AbstractContextManager[Any]] | None = None):
         self.run_folder, self.manifest, self.backend, self.settings = run, manifest, backend, settings
         self.interrupts = interrupts
+        self.tasks = tasks  # where scenarios run (a batch's pool or Ray); None: --workers decides
+        self.model_gate = model_gate or contextlib.nullcontext  # held while the model is asked
+        self.failed: dict[str, str] = {}  # scenario -> why it has no verdict (its worker died)
         self.on_event = on_event
         self.behavior = manifest.behavior
         run.write_manifest(manifest)
@@ -170,8 +155,9 @@ class MainJob:
         it (:meth:`close`): done, interrupted, a model error, or a disk that takes no more."""
         run, manifest = self.run_folder, self.manifest
         try:
-            paths = self.expand()
-            pending = self.ground(paths)
+            with self.model_gate():
+                paths = self.expand()
+                pending = self.ground(paths)
             self.simulate(pending)
             self.interrupts.check()
             manifest.status = "done"
@@ -259,34 +245,60 @@ class MainJob:
         self.emit("scenario_done", name=name, feasible=done.feasible, status=done.status, skipped=True)
 
     def simulate(self, pending: list[str]) -> None:
-        """Simulate, verify, draw and export each grounded scenario (:func:`simulate_stage`): in
-        worker processes when the settings ask for more than one and more than one is pending,
-        else here."""
+        """Simulate, verify, draw and export each grounded scenario (:func:`simulate_stage`): as
+        tasks (the batch's, or worker processes when the settings ask for more than one and more
+        than one is pending), else here."""
         self.emit("stage", stage="simulate", total=len(pending))
         t0 = time.perf_counter()
         dirs = {name: str(self.run_folder.scenario(name).path) for name in pending}
-        if self.settings.workers > 1 and len(pending) > 1:
-            self.simulate_in_workers(dirs)
+        if self.tasks is not None and dirs:
+            self.simulate_as_tasks(self.tasks, dirs)
+        elif self.settings.workers > 1 and len(pending) > 1:
+            tasks = ProcessTasks(min(self.settings.workers, len(pending)))
+            try:
+                self.simulate_as_tasks(tasks, dirs)
+            except BaseException:
+                tasks.close(cancel=True)  # running scenarios finish and are kept
+                raise
+            tasks.close()
         else:
             self.simulate_here(dirs)
         self.timed("simulate", t0)
 
-    def simulate_in_workers(self, dirs: dict[str, str]) -> None:
-        """The scenarios of ``dirs`` (name -> folder) in a process pool, collected in run order;
-        on an interrupt or an error the running ones finish and are kept."""
+    def simulate_as_tasks(self, tasks: ScenarioTasks, dirs: dict[str, str]) -> None:
+        """The scenarios of ``dirs`` (name -> folder) as ``tasks``, collected in run order. One
+        whose worker died on every attempt has no verdict: its outcome says so (a rerun runs it
+        again) and :attr:`failed` keeps the reason."""
         domain, pictures, options = self.behavior.domain, self.settings.pictures, self.settings.export_options
-        pool = ProcessPoolExecutor(max_workers=self.settings.workers, initializer=_worker_init,
-                                   initargs=(os.getpid(),))
+        futs = {name: tasks.submit(simulate_stage, domain, str(Path(folder).resolve()), pictures, options)  # a worker's
+                for name, folder in dirs.items()}  # working folder may differ (Ray)
         try:
-            futs = {name: pool.submit(simulate_stage, domain, folder, pictures, options)
-                    for name, folder in dirs.items()}
             for name, fut in futs.items():
-                self.collect(name, dirs[name], fut.result())
+                while True:
+                    try:
+                        res = fut.result(timeout=0.5)
+                        break
+                    except TimeoutError:
+                        self.interrupts.check()
+                    except WorkerDied as exc:
+                        res = None
+                        self.worker_died(name, dirs[name], str(exc))
+                        break
+                if res is not None:
+                    self.collect(name, dirs[name], res)
                 self.interrupts.check()
         except BaseException:
-            pool.shutdown(wait=True, cancel_futures=True)  # running scenarios finish and are kept
+            for fut in futs.values():
+                fut.cancel()
             raise
-        pool.shutdown()
+
+    def worker_died(self, name: str, folder: str, why: str) -> None:
+        """A scenario whose worker died on each attempt: an outcome without a verdict on disk."""
+        self.failed[name] = why
+        verdict = Verdict(feasible=False, status="simulation_failed",
+                          reason=f"not simulated: {why}; run the same command again to retry it")
+        self.outcomes.append(ScenarioOutcome(name, verdict, path=Path(folder)))
+        self.emit("scenario_done", name=name, feasible=False, status=verdict.status, reason=verdict.reason)
 
     def simulate_here(self, dirs: dict[str, str]) -> None:
         """The scenarios of ``dirs`` (name -> folder) one after the other in this process; a first

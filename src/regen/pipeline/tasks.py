@@ -1,0 +1,275 @@
+"""Where the scenarios of a run are simulated: worker processes on this machine
+(:class:`ProcessTasks`, ``--workers N``) or Ray tasks on a cluster (:class:`RayTasks`, ``regen
+batch --ray``). Both take the same task, :func:`regen.pipeline.stages.simulate_stage` (simulate,
+verify, check the cause, draw, export: plain arguments in, plain data out, the scenario folder
+written by the worker), and hand back :class:`concurrent.futures.Future` objects.
+
+A worker that dies (killed, out of memory, a simulator's crash) loses only the scenario it was
+running: that one is run once more on a fresh worker, then its future fails with
+:class:`WorkerDied` saying so; the other scenarios are not touched.
+
+Imports: the standard library; Ray only inside :class:`RayTasks`.
+"""
+
+from __future__ import annotations
+
+import collections
+import multiprocessing as mp
+import os
+import threading
+from collections.abc import Callable
+from concurrent.futures import Future
+from dataclasses import dataclass, field
+from multiprocessing.connection import Connection, wait
+from typing import Any, Protocol
+
+from regen.errors import ConfigError, RegenError, install_hint
+
+ATTEMPTS = 2  # runs of a scenario whose worker died: the first and one retry
+
+
+class WorkerDied(RegenError):
+    """The process running a scenario died, on every attempt."""
+
+
+class ScenarioTasks(Protocol):
+    """Runs ``fn(*args)`` somewhere; a future of its result."""
+
+    workers: int
+
+    def submit(self, fn: Callable[..., Any], *args: Any) -> Future: ...
+
+    def close(self, *, cancel: bool = False) -> None: ...
+
+
+def _worker_main(conn: Connection, parent: int) -> None:
+    """A worker process: run what the parent sends, one task at a time, until it sends None."""
+    from regen.pipeline.workers import worker_init
+
+    worker_init(parent)
+    while True:
+        try:
+            job = conn.recv()
+        except EOFError:
+            return
+        if job is None:
+            return
+        fn, args = job
+        try:
+            conn.send(("ok", fn(*args)))
+        except Exception as exc:  # the task's own failure: the caller's future gets it
+            try:
+                conn.send(("error", exc))
+            except Exception:  # an exception that does not pickle: its text
+                conn.send(("error", RuntimeError(f"{type(exc).__name__}: {exc}")))
+
+
+@dataclass
+class _Task:
+    future: Future
+    fn: Callable[..., Any]
+    args: tuple[Any, ...]
+    attempts: int = 0
+
+
+@dataclass
+class _Worker:
+    process: Any
+    conn: Connection
+    task: _Task | None = None
+    deaths: list[str] = field(default_factory=list)
+
+
+class ProcessTasks:
+    """``workers`` processes of this machine (started on first use), each running one scenario
+    at a time. A dispatcher
+    thread hands tasks to idle workers, collects results, and replaces a worker that died,
+    running its scenario once more (:data:`ATTEMPTS`)."""
+
+    def __init__(self, workers: int):
+        if workers < 1:
+            raise ConfigError(f"workers must be at least 1, not {workers}")
+        self.workers = workers
+        # forked where the platform can (workers start at once and see this process's set-up, as
+        # the process pools before them did); spawned elsewhere
+        self._ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+        self._queue: collections.deque[_Task] = collections.deque()
+        self._pool: list[_Worker] = []
+        self._lock = threading.Condition()
+        self._closing = False
+        self._thread: threading.Thread | None = None
+        self.deaths = 0  # workers that died while running a scenario (a figure for the summary)
+
+    def submit(self, fn: Callable[..., Any], *args: Any) -> Future:
+        fut: Future = Future()
+        with self._lock:
+            if self._closing:
+                raise RuntimeError("the worker pool is closed")
+            self._queue.append(_Task(fut, fn, args))
+            if self._thread is None:
+                self._thread = threading.Thread(target=self._dispatch, name="regen-tasks", daemon=True)
+                self._thread.start()
+            self._lock.notify_all()
+        return fut
+
+    def _start_worker(self) -> _Worker:
+        parent, child = self._ctx.Pipe()
+        p = self._ctx.Process(target=_worker_main, args=(child, os.getpid()), daemon=True, name="regen-worker")
+        p.start()
+        child.close()
+        return _Worker(p, parent)
+
+    def _assign(self) -> None:
+        """Idle workers take queued tasks; new workers start while tasks wait (under the lock)."""
+        while self._queue:
+            idle = next((w for w in self._pool if w.task is None), None)
+            if idle is None and len(self._pool) < self.workers:
+                idle = self._start_worker()
+                self._pool.append(idle)
+            if idle is None:
+                return
+            task = self._queue.popleft()
+            if task.attempts == 0 and not task.future.set_running_or_notify_cancel():
+                continue  # cancelled while it waited
+            task.attempts += 1
+            idle.task = task
+            idle.conn.send((task.fn, task.args))
+
+    def _dispatch(self) -> None:
+        while True:
+            with self._lock:
+                self._assign()
+                busy = [w for w in self._pool if w.task is not None]
+                if not busy:
+                    if self._closing and not self._queue:
+                        return
+                    self._lock.wait(0.5)
+                    continue
+            ready = wait([w.conn for w in busy] + [w.process.sentinel for w in busy], timeout=0.5)
+            with self._lock:
+                for w in busy:
+                    if w.conn in ready and w.conn.poll():
+                        self._finish(w)
+                    elif w.process.sentinel in ready:
+                        self._died(w)
+
+    def _finish(self, w: _Worker) -> None:
+        try:
+            kind, value = w.conn.recv()
+        except (EOFError, OSError):
+            self._died(w)
+            return
+        task, w.task = w.task, None
+        assert task is not None
+        if kind == "ok":
+            task.future.set_result(value)
+        else:
+            task.future.set_exception(value)
+
+    def _died(self, w: _Worker) -> None:
+        """A worker died: it leaves the pool; its scenario runs again, or fails after the last attempt."""
+        w.process.join(timeout=1)
+        code = w.process.exitcode
+        self._pool.remove(w)
+        task, w.task = w.task, None
+        if task is None:
+            return
+        self.deaths += 1
+        why = f"the worker process running it died (exit code {code})"
+        if task.attempts < ATTEMPTS:
+            self._queue.appendleft(task)
+        else:
+            task.future.set_exception(WorkerDied(f"{why}, on each of {task.attempts} attempts"))
+
+    def close(self, *, cancel: bool = False) -> None:
+        """Stop taking tasks; with ``cancel``, queued ones are cancelled (running ones finish and
+        are kept); then the workers leave."""
+        with self._lock:
+            self._closing = True
+            if cancel:
+                while self._queue:
+                    self._queue.popleft().future.cancel()
+            self._lock.notify_all()
+        if self._thread is not None:
+            self._thread.join()
+        for w in self._pool:
+            try:
+                w.conn.send(None)
+            except OSError:
+                pass
+            w.process.join(timeout=5)
+            if w.process.is_alive():
+                w.process.kill()
+        self._pool.clear()
+
+
+def _ray() -> Any:
+    try:
+        import ray
+    except ImportError:
+        raise ConfigError("--ray needs Ray: " + install_hint("scale")) from None
+    return ray
+
+
+class RayTasks:
+    """Ray tasks on the cluster at ``address`` (``ray.init(address=...)``: a user's cluster
+    works unchanged). ``auto``: the cluster this machine is part of, or else a local one with
+    ``workers`` CPUs. A task whose worker dies is retried once by Ray (``max_retries=1``), then
+    fails with :class:`WorkerDied`."""
+
+    def __init__(self, address: str, workers: int = 1):
+        ray = _ray()
+        self.address = address
+        os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")  # no usage reports from an offline tool
+        try:
+            if address == "auto":
+                try:
+                    ray.init(address="auto", log_to_driver=False, logging_level="WARNING")
+                except ConnectionError:
+                    ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False,
+                             logging_level="WARNING")
+            else:
+                ray.init(address=address, log_to_driver=False, logging_level="WARNING")
+        except ConnectionError as exc:
+            raise ConfigError(f"--ray {address}: no Ray cluster answers there ({exc}); start one with "
+                              "'ray start --head' or give its address (HOST:PORT)") from None
+        self.workers = int(ray.cluster_resources().get("CPU", workers))
+        self._remote = ray.remote(max_retries=ATTEMPTS - 1, num_cpus=1)(_call)
+        self._lock = threading.Lock()
+        self.deaths = 0
+
+    def submit(self, fn: Callable[..., Any], *args: Any) -> Future:
+        ray = _ray()
+        inner = self._remote.remote(fn, *args).future()
+        outer: Future = Future()
+
+        def done(f: Future) -> None:
+            exc = f.exception()
+            if exc is None:
+                outer.set_result(f.result())
+            elif isinstance(exc, (ray.exceptions.WorkerCrashedError, ray.exceptions.NodeDiedError,
+                                  ray.exceptions.OwnerDiedError)):
+                with self._lock:
+                    self.deaths += 1
+                outer.set_exception(WorkerDied(f"the Ray worker running it died, on each of {ATTEMPTS} "
+                                               f"attempts ({type(exc).__name__})"))
+            elif isinstance(exc, ray.exceptions.RayTaskError):
+                outer.set_exception(exc.as_instanceof_cause())
+            else:
+                outer.set_exception(exc)
+
+        inner.add_done_callback(done)
+        return outer
+
+    def close(self, *, cancel: bool = False) -> None:
+        ray = _ray()
+        if ray.is_initialized():
+            ray.shutdown()
+
+
+def _call(fn: Callable[..., Any], *args: Any) -> Any:
+    """A Ray task: ``fn(*args)`` in a Ray worker."""
+    return fn(*args)
+
+
+__all__ = ["ATTEMPTS", "ProcessTasks", "RayTasks", "ScenarioTasks", "WorkerDied"]

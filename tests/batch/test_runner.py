@@ -1,0 +1,97 @@
+"""`regen batch` end to end on the fake simulator and a scripted model (test doubles of the
+simulator and the model only; the batch, the main job, the pool and the CLI are the product's):
+run folders per behavior, batch.json, resume, a failing behavior that does not stop the others,
+and folders it refuses."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from fake_backend import FakeBackend
+from fake_expansion_model import ScriptedModel
+from typer.testing import CliRunner
+
+from regen import domains
+from regen.batch import run_batch
+from regen.cli import app
+from regen.errors import ConfigError, RunError
+from regen.llm import registry
+from regen.llm.testing import FunctionProvider
+
+STOP = "the ego-vehicle stops abruptly while driving forward"
+SLOW = "the ego-vehicle slows down while driving forward"
+
+
+@pytest.fixture
+def fake_driving(monkeypatch):
+    monkeypatch.setitem(domains._REGISTRY, "driving", "fake_backend:FakeBackend")
+    FakeBackend.simulated = []
+    model = ScriptedModel(causes={STOP: ["debris lies ahead", "a bus blocks the lane"],
+                                  SLOW: ["a cyclist rides ahead"]},
+                          entities={"debris lies ahead": ["debris"], "a bus blocks the lane": ["bus"],
+                                    "a cyclist rides ahead": ["bicycle"]})
+    monkeypatch.setitem(registry._FACTORIES, "scripted", lambda name, **kw: FunctionProvider(model))
+    return model
+
+
+def _spec(tmp_path: Path, *extra: str) -> Path:
+    p = tmp_path / "spec.yaml"
+    p.write_text("behaviors:\n" + "".join(
+        f"  - text: {t}\n    domain: driving\n    scenarios: 2\n    llm: scripted\n    depth: 1\n    pictures: false\n"
+        for t in (STOP, SLOW, *extra)))
+    return p
+
+
+def _verdicts(run: Path) -> dict[str, str]:
+    return {p.parent.name: json.loads(p.read_text())["status"] for p in sorted(run.glob("scenarios/*/verdict.json"))}
+
+
+def test_a_batch_runs_each_behavior_into_its_run_folder_and_resumes(tmp_path, fake_driving) -> None:
+    out = tmp_path / "batch"
+    rec = run_batch(_spec(tmp_path), out, workers=2)
+    assert rec.status == "done" and [b.status for b in rec.behaviors] == ["done", "done"]
+    folders = [b.folder for b in rec.behaviors]
+    assert folders == ["01-the-ego-vehicle-stops-abruptly-while-dri", "02-the-ego-vehicle-slows-down-while-driving"]
+    stop = _verdicts(out / folders[0])
+    assert sorted(stop.values()) == ["fsm_incomplete", "verified"]  # the bus never makes the ego stop
+    assert list(_verdicts(out / folders[1]).values()) == ["verified"]
+    on_disk = json.loads((out / "batch.json").read_text())
+    assert on_disk["status"] == "done" and on_disk["executor"] == "pool" and on_disk["workers"] == 2
+    summary = json.loads((out / "summary.json").read_text())
+    assert (out / "report.html").is_file() and summary
+    for f in folders:  # each one a run folder that `regen generate` would resume
+        assert json.loads((out / f / "run.json").read_text())["status"] == "done"
+    before = {f: (out / f / "scenarios").stat().st_mtime_ns for f in folders}
+    calls = len(fake_driving.kinds)
+    again = run_batch(_spec(tmp_path), out, workers=2)
+    assert again.status == "done" and len(fake_driving.kinds) == calls  # answers and verdicts kept
+    assert {f: _verdicts(out / f) for f in folders} == {folders[0]: stop, folders[1]: _verdicts(out / folders[1])}
+    assert before == {f: (out / f / "scenarios").stat().st_mtime_ns for f in folders}
+
+
+def test_a_failing_behavior_is_recorded_and_the_others_run(tmp_path, fake_driving) -> None:
+    out = tmp_path / "batch"
+    rec = run_batch(_spec(tmp_path), out, workers=1, replay=True)  # no cached answers: both fail
+    assert rec.status == "failed" and {b.status for b in rec.behaviors} == {"failed"}
+    assert all("no cached answer" in b.message for b in rec.behaviors)
+    res = CliRunner().invoke(app, ["batch", str(_spec(tmp_path)), "--out", str(out), "--log", "quiet"],
+                             env={"COLUMNS": "200"})
+    assert res.exit_code == 0, res.output  # the rerun asks the model and finishes both
+    assert "batch done" in res.output and res.output.count("done ") >= 2
+
+
+def test_a_folder_holding_other_files_or_another_spec_is_refused_untouched(tmp_path, fake_driving) -> None:
+    out = tmp_path / "batch"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    with pytest.raises(ConfigError, match="notes.txt"):
+        run_batch(_spec(tmp_path), out)
+    assert sorted(p.name for p in out.iterdir()) == ["notes.txt"]
+    (out / "notes.txt").unlink()
+    run_batch(_spec(tmp_path), out, workers=1)
+    other = tmp_path / "other"
+    other.mkdir()
+    with pytest.raises(RunError, match="another spec"):
+        run_batch(_spec(other, "the ego-vehicle changes lanes while driving forward"), out)

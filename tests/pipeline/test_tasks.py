@@ -1,0 +1,84 @@
+"""Scenario tasks on worker processes: results come back, a task's own error is its own, and a
+worker that dies loses only the scenario it was running, which runs once more and then fails."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from regen.pipeline.tasks import ATTEMPTS, ProcessTasks, WorkerDied
+
+
+def square(x: int) -> int:
+    return x * x
+
+
+def boom(msg: str) -> None:
+    raise ValueError(msg)
+
+
+def die_once(marker: str) -> int:
+    """Kills its worker the first time (as a simulator crash or kill -9 would), then answers."""
+    m = Path(marker)
+    if not m.exists():
+        m.write_text("died")
+        os._exit(137)
+    return os.getpid()
+
+
+def always_die(counter: str) -> None:
+    with open(counter, "a") as f:
+        f.write("x")
+    os._exit(137)
+
+
+@pytest.fixture
+def tasks():
+    t = ProcessTasks(2)
+    yield t
+    t.close(cancel=True)
+
+
+def test_results_come_back_in_any_order_of_completion(tasks) -> None:
+    futs = [tasks.submit(square, i) for i in range(6)]
+    assert [f.result(timeout=60) for f in futs] == [0, 1, 4, 9, 16, 25]
+
+
+def test_a_tasks_own_error_reaches_its_future_and_the_worker_lives_on(tasks) -> None:
+    bad = tasks.submit(boom, "bad input")
+    with pytest.raises(ValueError, match="bad input"):
+        bad.result(timeout=60)
+    assert tasks.submit(square, 3).result(timeout=60) == 9
+    assert tasks.deaths == 0
+
+
+def test_a_worker_that_dies_loses_only_its_scenario_which_runs_again(tasks, tmp_path) -> None:
+    others = [tasks.submit(square, i) for i in range(4)]
+    once = tasks.submit(die_once, str(tmp_path / "marker"))
+    pid = once.result(timeout=60)
+    assert pid != os.getpid() and (tmp_path / "marker").read_text() == "died"
+    assert [f.result(timeout=60) for f in others] == [0, 1, 4, 9]
+    assert tasks.deaths == 1
+
+
+def test_a_scenario_whose_worker_always_dies_fails_after_the_retry(tasks, tmp_path) -> None:
+    counter = tmp_path / "attempts"
+    doomed = tasks.submit(always_die, str(counter))
+    fine = tasks.submit(square, 7)
+    with pytest.raises(WorkerDied, match=f"died .*{ATTEMPTS} attempts"):
+        doomed.result(timeout=60)
+    assert counter.read_text() == "x" * ATTEMPTS
+    assert fine.result(timeout=60) == 49
+    assert tasks.submit(square, 2).result(timeout=60) == 4  # the pool goes on with fresh workers
+
+
+def test_close_with_cancel_cancels_what_has_not_started(tmp_path) -> None:
+    t = ProcessTasks(1)
+    futs = [t.submit(square, i) for i in range(50)]
+    t.close(cancel=True)
+    assert any(f.cancelled() for f in futs)
+    assert all(f.result() == i * i for i, f in enumerate(futs) if f.done() and not f.cancelled())
+    with pytest.raises(RuntimeError, match="closed"):
+        t.submit(square, 1)
