@@ -18,10 +18,19 @@ if TYPE_CHECKING:
     from regen.contract import PropertyChoices
 
 
-def choice_models(options: dict[str, tuple[str, list[str]]], choices: PropertyChoices | None) -> list[Any]:
+def choice_models(options: dict[str, tuple[str, list[str]]], choices: PropertyChoices | None,
+                  named: frozenset[str] = frozenset()) -> list[Any]:
     """One pydantic model per consistent combination family: the key property fixed to one value,
     the properties that depend on it restricted to (or, when absent, without) their allowed
-    values; independent properties free. Without dependencies, one model."""
+    values; independent properties free. Without dependencies, one model. ``named``: properties
+    whose value the event's words name: a key value that cannot have it is no choice ('a slow
+    truck' cannot be one that brakes hard in front of the ego), unless no key value can."""
+    out = _choice_models(options, choices, named)
+    return out or _choice_models(options, choices, frozenset())
+
+
+def _choice_models(options: dict[str, tuple[str, list[str]]], choices: PropertyChoices | None,
+                   named: frozenset[str]) -> list[Any]:
     def model(name: str, fixed: dict[str, list[str]]) -> Any:
         fields = {p: (Literal[tuple(v)], ...) for p, v in fixed.items()}
         return create_model(name, __base__=Answer, **fields)
@@ -48,6 +57,8 @@ def choice_models(options: dict[str, tuple[str, list[str]]], choices: PropertyCh
                     fixed[p] = vals
                 elif p in allowed:
                     fixed[p] = [v for v in vals if v in allowed[p]]
+            if allowed is not None and any(p in restricted and not fixed.get(p) for p in named):
+                continue  # the value the words name is not one this alternative allows (or it has none)
             if any(not v for v in fixed.values()):
                 # an alternative the offered values leave nothing of is no choice; if none is
                 # left, the last one with what was offered (the model's values are kept)

@@ -135,7 +135,7 @@ def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, en
         said[p] = f'the event says "{phrase}", which names {p} = {state}'
         ruled[p] = {v: said[p] for v in values if v != state}
         options = {**options, p: (desc, [state])}
-    variants = choice_models(options, choices)
+    variants = choice_models(options, choices, frozenset(said))
     if len(variants) == 1:  # the prompt offers what the schema allows (a named behavior's starts)
         fields = variants[0].model_fields
         options = {p: (d, list(get_args(fields[p].annotation))) for p, (d, _) in options.items() if p in fields}
