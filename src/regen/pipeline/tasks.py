@@ -14,6 +14,7 @@ Imports: the standard library; Ray only inside :class:`RayTasks`.
 from __future__ import annotations
 
 import collections
+import logging
 import multiprocessing as mp
 import os
 import threading
@@ -24,6 +25,8 @@ from multiprocessing.connection import Connection, wait
 from typing import Any, Protocol
 
 from regen.errors import ConfigError, RegenError, install_hint
+
+log = logging.getLogger(__name__)
 
 ATTEMPTS = 2  # runs of a scenario whose worker died: the first and one retry
 
@@ -177,6 +180,7 @@ class ProcessTasks:
         self.deaths += 1
         why = f"the worker process running it died (exit code {code})"
         if task.attempts < ATTEMPTS:
+            log.warning("%s; running that scenario once more on a new worker", why)
             self._queue.appendleft(task)
         else:
             task.future.set_exception(WorkerDied(f"{why}, on each of {task.attempts} attempts"))
