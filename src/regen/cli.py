@@ -331,6 +331,7 @@ def batch_cmd(
     process pool or a Ray cluster, one summary report over all of them."""
     from regen.batch import run_batch
     from regen.batch.progress import make_batch_progress
+    from regen.batch.terminal import print_batch
     from regen.errors import ConfigError
     from regen.promises.folders import out_folder
 
@@ -345,15 +346,8 @@ def batch_cmd(
             err_console.print(f"[yellow]interrupted: finished scenarios are saved in {shown(out)}; "
                               "run the same command again to resume[/]")
             raise typer.Exit(130) from None
-    if log == "jsonl":
-        return
-    for b in record.behaviors:
-        colour = {"done": "green", "failed": "red"}.get(b.status, "yellow")
-        lost = f"; {len(b.failed_scenarios)} not simulated (worker died)" if b.failed_scenarios else ""
-        console.print(f"[{colour}]{shown(b.status)}[/] {shown(b.folder)}{shown(lost)}"
-                      + (f": {shown(b.message)}" if b.message and b.status != "done" else ""))
-    console.print(f"[bold]batch {shown(record.status)}[/] in {record.wall_seconds:.0f} s; report: "
-                  f"{shown(str(out_dir / 'report.html'))}")
+    if log != "jsonl":
+        print_batch(console, record, out_dir)
     if record.status == "failed":
         raise typer.Exit(1)
 
