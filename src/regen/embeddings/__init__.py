@@ -21,6 +21,7 @@ from regen.embeddings.encoder import (
     ONNX_SHA256,
     VOCAB_SHA256,
     EmbeddingModelError,
+    LazyEncoder,
     SentenceEncoder,
     default_encoder,
     mean_pool_normalize,
@@ -28,5 +29,5 @@ from regen.embeddings.encoder import (
 )
 
 __all__ = ["BATCH_SIZE", "EMBEDDING_DIM", "MAX_TOKENS", "MODEL_ID", "ONNX_SHA256", "VOCAB_SHA256",
-           "EmbeddingModelError", "SentenceEncoder", "default_encoder", "mean_pool_normalize",
-           "optional_encoder"]
+           "EmbeddingModelError", "LazyEncoder", "SentenceEncoder", "default_encoder",
+           "mean_pool_normalize", "optional_encoder"]

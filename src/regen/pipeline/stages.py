@@ -137,8 +137,9 @@ def ground_stage(backend: DomainBackend, path: CausePath, llm: LLM | None, folde
 def simulate_stage(domain: str, scenario_dir: str, pictures: bool = True,
                    export_options: dict[str, bool] | None = None) -> dict[str, Any]:
     """Simulate, verify, draw and export one grounded scenario folder. Runs in worker processes
-    too, so it takes and returns plain data; the verdict is written last. ``export_options``:
-    passed to the domain's export."""
+    too, so it takes and returns plain data. The verdict is written once verified, before the
+    pictures and exports are drawn (a kill while drawing leaves a verdict whose missing files a
+    resume draws: :func:`needs_drawing`). ``export_options``: passed to the domain's export."""
     folder = ScenarioFolder(Path(scenario_dir))
     with folder.recording():  # what the domain writes here is the run's: --fresh removes it
         return _simulate(domain, folder, pictures, export_options or {})
@@ -184,14 +185,16 @@ def _simulate(domain: str, folder: ScenarioFolder, pictures: bool, export_option
         return {"verdict": verdict.model_dump(mode="json"), "timings": timings}
     if judged.fsm != scenario.fsm:  # relaxed: the folder shows the FSM the verdict is about
         folder.write_scenario(judged, backend.config(judged))
-    files = dict(sim.files)
+    folder.add_files(dict(sim.files))
+    folder.add_timings(timings)
+    # the verdict before the pictures and exports: a run killed while drawing keeps it, and the
+    # resume draws what is missing (needs_drawing: no render or export time recorded yet)
+    folder.write_verdict(verdict)
     drawn, problems = _draw(backend, judged, sim.trace, verdict, folder, pictures, timings, export_options)
-    files.update(drawn)
     if problems:
         folder.write_error("\n".join(problems))
-    folder.add_files(files)
-    folder.add_timings(timings)
-    folder.write_verdict(verdict)
+    folder.add_files(drawn)
+    folder.add_timings({k: timings[k] for k in ("render", "export") if k in timings})
     return {"verdict": verdict.model_dump(mode="json"), "timings": timings}
 
 

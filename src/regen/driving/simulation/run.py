@@ -7,7 +7,9 @@ needed and the exported program stays plain Scenic.
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import gc
 import logging
 import math
 import random
@@ -88,11 +90,38 @@ def _recording_simulator_class():
     return RecordingSimulator
 
 
+@contextlib.contextmanager
+def _collector_paused():
+    """Python's cyclic garbage collector off for the block (restored as it was after it).
+
+    A compilation builds tens of thousands of syntax-tree nodes that live until it ends: the
+    collector promotes them to its oldest generation and then scans the whole heap (200,000+
+    objects once Scenic is loaded) about once per compilation, 0.1 s each (measured: 40% of a
+    warm compilation). The trees hold no cycles, so they are freed as the block ends anyway;
+    what the compilation keeps is examined once, by the next young collection."""
+    was_on = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was_on:
+            gc.enable()
+
+
 def compile_program(text: str, *, filename: str = "<regen>"):
-    """Compile Scenic source into a scenario; Scenic errors become :class:`SimulationError`."""
+    """Compile Scenic source into a scenario; Scenic errors become :class:`SimulationError`.
+
+    Scenic's parsing, 95% of a compilation, goes through the process's statement cache
+    (:mod:`regen.driving.simulation.parse_cache`): the world model and the program's helpers are
+    parsed once, an actor that differs only in its numbers reuses its parse. The cyclic garbage
+    collector waits while Scenic compiles (:func:`_collector_paused`). Together: 0.14 s instead
+    of 1.0-2.0 s per compilation, the same compiled scenario."""
+    from regen.driving.simulation.parse_cache import cached_parsing
+
     scenic, _ = scenic_modules()
     try:
-        return scenic.scenarioFromString(text, filename=filename, mode2D=True)
+        with cached_parsing(), _collector_paused():
+            return scenic.scenarioFromString(text, filename=filename, mode2D=True)
     except Exception as exc:  # Scenic raises many error types; all mean "this program is bad"
         raise SimulationError(f"Scenic could not compile the program: {type(exc).__name__}: {exc}") from exc
 
