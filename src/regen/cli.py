@@ -310,6 +310,7 @@ def generate_cmd(
 
 
 @app.command("batch", **help_for("batch"))
+@friendly
 def batch_cmd(
     spec: str = typer.Argument(..., metavar="SPEC.yaml", help="The batch spec: a YAML mapping with 'behaviors:', "
                                "a list of entries with text, domain, scenarios and any 'regen generate' "

@@ -95,3 +95,13 @@ def test_a_folder_holding_other_files_or_another_spec_is_refused_untouched(tmp_p
     other.mkdir()
     with pytest.raises(RunError, match="another spec"):
         run_batch(_spec(other, "the ego-vehicle changes lanes while driving forward"), out)
+
+
+def test_a_bad_spec_is_one_line_on_the_command_line_and_nothing_is_written(tmp_path, fake_driving) -> None:
+    spec = tmp_path / "bad.yaml"
+    spec.write_text(f"behaviors:\n  - text: {STOP}\n    domain: drivng\n")
+    out = tmp_path / "out"
+    res = CliRunner().invoke(app, ["batch", str(spec), "--out", str(out)], env={"COLUMNS": "300"})
+    assert res.exit_code == 2 and "Traceback" not in res.output
+    assert "behaviors entry 1" in res.output and "unknown domain 'drivng'" in res.output
+    assert not out.exists()

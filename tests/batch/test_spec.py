@@ -83,7 +83,7 @@ def test_a_behavior_given_twice_is_refused_naming_both_entries(tmp_path) -> None
         _plan(path)
 
 
-def test_the_same_text_with_another_ego_is_another_behavior(tmp_path) -> None:
+def test_the_same_text_with_another_ego_or_other_causes_is_another_request(tmp_path) -> None:
     planned = _plan(_write(tmp_path, f"""behaviors:
   - text: {STOP}
     domain: driving
@@ -91,8 +91,12 @@ def test_the_same_text_with_another_ego_is_another_behavior(tmp_path) -> None:
   - text: {STOP}
     domain: driving
     ego: slow_down
+  - text: {STOP}
+    domain: driving
+    ego: stop_abruptly
+    cause: a child runs across the road
 """))
-    assert len(planned) == 2
+    assert len(planned) == 3
 
 
 def test_a_missing_spec_file_says_what_to_give(tmp_path) -> None:

@@ -77,10 +77,13 @@ class PlannedBehavior(Model):
     settings: RunSettings
     lines: list[str] = Field(default_factory=list)
 
-    def key(self) -> tuple[str, str, str]:
-        """What makes two entries the same behavior: domain, text and the domain's parameters."""
+    def key(self) -> tuple[str, str, str, tuple[str, ...], tuple[str, ...]]:
+        """What makes two entries the same request: domain, text, the domain's parameters and the
+        causes given (the same behavior asked for other causes is another request)."""
         params = ",".join(f"{k}={v}" for k, v in sorted(self.behavior.params.items()))
-        return self.behavior.domain, self.behavior.text.lower(), params
+        return (self.behavior.domain, self.behavior.text.lower(), params,
+                tuple(sorted(c.lower() for c in self.settings.forced_causes)),
+                tuple(sorted(c.lower() for c in self.settings.candidates)))
 
 
 def _where(i: int, raw: Any) -> str:
@@ -154,8 +157,8 @@ def plan(spec: BatchSpec, make_behavior: Any, export_options: Any, base: Path | 
                                export_options=options)
         p = PlannedBehavior(entry=e, behavior=behavior, settings=settings, lines=lines)
         if p.key() in seen:
-            raise ConfigError(f"{where} repeats behaviors entry {seen[p.key()] + 1} (same domain, text and "
-                              "parameters): give it once, with the larger 'scenarios'")
+            raise ConfigError(f"{where} repeats behaviors entry {seen[p.key()] + 1} (same domain, text, "
+                              "parameters and causes): give it once, with the larger 'scenarios'")
         seen[p.key()] = i
         out.append(p)
     return out
