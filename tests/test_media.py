@@ -92,6 +92,8 @@ def test_png_round_trips(tmp_path):
     img = media.strip([_tile(RED), _tile(BLUE)])
     path = media.write_png(tmp_path / "k.png", img)
     assert np.array_equal(np.asarray(Image.open(path).convert("RGB")), np.asarray(img))
+    quick = media.write_png(tmp_path / "q.png", img, compress_level=1)  # faster, the same pixels
+    assert np.array_equal(np.asarray(Image.open(quick).convert("RGB")), np.asarray(img))
 
 
 def test_the_writer_names_no_domain():
@@ -140,3 +142,66 @@ def test_key_frames_are_the_start_each_stage_reached_and_the_end():
     times = np.round(np.arange(0, 10.01, 0.1), 6)
     picks = media.keyframe_steps(times, [(1, 0.0, "a"), (2, 3.0, "b"), (3, None, "c")], 6)
     assert picks == [(0, "start"), (30, "stage 2 reached"), (65, "during"), (100, "end")]
+
+
+def _in_palette(img: Image.Image, pal: Image.Image) -> np.ndarray:
+    return np.asarray(img.quantize(palette=pal, dither=Image.Dither.NONE).convert("RGB"))
+
+
+def _decoded(path) -> list[tuple[np.ndarray, int]]:
+    im = Image.open(path)
+    out = []
+    for k in range(im.n_frames):
+        im.seek(k)
+        out.append((np.asarray(im.convert("RGB")), im.info["duration"]))
+    return out
+
+
+def test_a_gif_with_a_shared_palette_stores_only_the_box_that_changed(tmp_path):
+    """Each frame after the first is stored as the box around what changed over the frame
+    before (one colour table for all), and a viewer still sees every frame as drawn."""
+    rng = np.random.default_rng(0)
+    first = rng.integers(0, 256, (60, 80, 3), dtype=np.uint8)
+    second, third = first.copy(), first.copy()
+    second[10:14, 20:30] = RED  # a 10 x 4 px change
+    third[10:14, 20:30] = RED
+    third[50:52, 70:73] = BLUE  # and a second one far from it
+    frames = [Image.fromarray(a) for a in (first, second, third)]
+    pal = media.palette_of(frames)
+    path = media.write_gif(tmp_path / "a.gif", frames, [100, 200, 300], palette=pal)
+    shown = _decoded(path)
+    for (pixels, ms), img, want in zip(shown, frames, (100, 200, 300), strict=True):
+        assert np.array_equal(pixels, _in_palette(img, pal))
+        assert ms == want
+    im = Image.open(path)
+    im.seek(1)
+    assert im.dispose_extent == (20, 10, 30, 14)  # (left, top, right, bottom) of the change
+    im.seek(2)
+    assert im.dispose_extent == (70, 50, 73, 52)
+
+
+def test_equal_frames_merge_into_a_longer_one_and_a_frame_may_change_everywhere(tmp_path):
+    rng = np.random.default_rng(1)
+    noise = [Image.fromarray(rng.integers(0, 256, (32, 32, 3), dtype=np.uint8)) for _ in range(2)]
+    pal = media.palette_of(noise)  # (nearly) every index used: hardly a spare one for unchanged pixels
+    frames = [noise[0], noise[0], noise[1], noise[1], noise[1]]
+    shown = _decoded(media.write_gif(tmp_path / "n.gif", frames, [100, 50, 100, 100, 1000], palette=pal))
+    assert [ms for _, ms in shown] == [150, 1200]
+    for (pixels, _), img in zip(shown, noise, strict=True):
+        assert np.array_equal(pixels, _in_palette(img, pal))
+
+
+def test_the_caption_band_is_the_same_drawn_fresh_or_remembered():
+    """The part of the caption that does not change with the time is drawn once and kept: the
+    pixels must not depend on whether it was."""
+    bar = media.StageBar([(1, 0.5, "a: s0"), (2, 2.0, "b: s1 " * 20)], "fsm_incomplete", None, 4.0)
+    pictures = []
+    for t in (1.0, 1.0, 3.0):
+        if not pictures:
+            media._caption_band.cache_clear()
+        img = Image.new("RGB", (640, 120), BLUE)
+        media.draw_caption(img, 64, bar, t, "ego  5.0 m/s")
+        pictures.append(np.asarray(img))
+    assert np.array_equal(pictures[0], pictures[1])
+    assert not np.array_equal(pictures[1], pictures[2])  # stage 2 reached by t = 3 s
+    assert (pictures[0][:64] == BLUE).all()  # nothing above the band

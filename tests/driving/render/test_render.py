@@ -298,3 +298,57 @@ def test_a_queue_is_drawn_as_its_cars_one_behind_the_other(straight_map, tmp_pat
     assert _mask(window, VEHICLE, 0).sum() > 0
     _, screens = ndimage.label(_mask(window, (30, 36, 48), 0).any(axis=0))  # one windscreen per car
     assert screens == 3
+
+
+def test_the_gif_shows_exactly_the_drawn_frames_and_the_cars_move_in_it(straight_map, tmp_path):
+    """The GIF stores only what changed from frame to frame: a viewer must still see each drawn
+    frame (in the shared palette), the moving cars change their pixels and the ground does not."""
+    from regen.driving.render.frames import Frames, frame, palette, story_of
+
+    scenario, trace = _run(straight_map, seconds=2.0)
+    verdict = _verdict([0.0, 0.5, 1.5])
+    out = render.render_scenario(scenario, trace, verdict, tmp_path)
+    actors, times, view, bg = render.scene(scenario, trace, "test")
+    legend = legend_image(legend_entries(actors, view))
+    frames = Frames(bg, view, actors, story_of(scenario, trace, verdict), times, legend)
+    pal = palette(bg)
+    shown = _frames(out[ANIMATION])
+    assert len(shown) == trace.steps and shown[0].shape == (480 + legend.height, 640, 3)
+    for i in (0, 1, 7, trace.steps - 1):
+        drawn = frames.draw(i)
+        assert np.array_equal(np.asarray(drawn), np.asarray(frame(bg, view, actors, frames.story, times, i,
+                                                                  legend=legend)))
+        expected = np.asarray(drawn.quantize(palette=pal, dither=Image.Dither.NONE).convert("RGB"))
+        assert np.array_equal(shown[i], expected), i
+    # car1 drives east at 4 m/s: in 1 s its body has left the spot it covered at the start
+    px, py = view.to_px(trace.actors["car1"].x[0], trace.actors["car1"].y[0])
+    spot = np.s_[int(py) - 3: int(py) + 4, int(px) - 3: int(px) + 4]
+    assert (shown[0][spot] != shown[10][spot]).any()
+    assert np.array_equal(shown[0][:20, :20], shown[-1][:20, :20])  # the far corner stays as it is
+    strip = Image.open(out[KEYFRAMES])
+    assert strip.size == (4 * 640 + 3 * render.KEYFRAME_GAP, 480)  # start, stages 2 and 3, end
+
+
+def test_the_map_is_drawn_as_an_axes_over_the_view_draws_it(straight_map):
+    """The background puts the shapes on the figure through the transform an axes spanning it
+    would use, skipping the axes: the same pixels as drawing them into such an axes."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    scenario, trace = _run(straight_map)
+    layers = render_map.map_layers(scenario, trace)
+    for view in (choose_view(actors_from_trace(trace)), render_map.View(9.0, -60.0, 30.0, 1300, 520, "ego")):
+        fig = Figure(figsize=(view.width / render_map.DPI, view.height / render_map.DPI), dpi=render_map.DPI,
+                     facecolor=tuple(c / 255 for c in render_map.GRASS))
+        canvas = FigureCanvasAgg(fig)
+        ax = fig.add_axes((0, 0, 1, 1))
+        ax.set_axis_off()
+        ax.set_xlim(view.x0, view.x0 + view.width / view.scale)
+        ax.set_ylim(view.y1 - view.height / view.scale, view.y1)
+        for artist in render_map.map_artists(layers, view, ax.transData):
+            ax.add_artist(artist)
+        canvas.draw()
+        expected = np.asarray(canvas.buffer_rgba())[..., :3]
+        drawn = np.asarray(render_map.background(layers, view))
+        assert drawn.shape == expected.shape and np.array_equal(drawn, expected), view
+        assert (drawn != np.asarray(render_map.GRASS)).any(axis=2).mean() > 0.2  # a road, not grass alone

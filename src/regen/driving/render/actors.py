@@ -20,9 +20,9 @@ from PIL import Image, ImageDraw
 from regen.core.trace import Trace
 from regen.driving.render.roads import FRAME_W, MAP_H, View
 from regen.driving.world.actors import actor_category
-from regen.driving.world.geometry import corners, to_world
+from regen.driving.world.geometry import to_world
 from regen.errors import RegenError
-from regen.media import text_font
+from regen.media import text_font, text_length
 
 log = logging.getLogger(__name__)
 
@@ -144,8 +144,16 @@ def actors_from_trace(trace: Trace) -> list[Actor]:
 
 
 def _rect(cx, cy, h, length, width, along=0.0, across=0.0) -> list[tuple[float, float]]:
-    """Corners [m] of a length x width rectangle centred ``along``/``across`` from (cx, cy)."""
-    return [(float(x), float(y)) for x, y in corners(cx, cy, h, length, width, along=along, across=across)]
+    """Corners [m] of a length x width rectangle centred ``along``/``across`` from (cx, cy), in
+    the order of :func:`regen.driving.world.geometry.corners` and with its arithmetic, on plain
+    floats: a frame draws dozens of these, and numpy's overhead on four points was most of it."""
+    c, s = math.cos(h), math.sin(h)
+    ox, oy = cx + along * c - across * s, cy + along * s + across * c
+    out = []
+    for lo, la in ((1, 1), (-1, 1), (-1, -1), (1, -1)):
+        a, b = lo * length / 2, la * width / 2
+        out.append((ox + a * c - b * s, oy + a * s + b * c))
+    return out
 
 
 class Canvas:
@@ -159,8 +167,9 @@ class Canvas:
         self.bodies: list[tuple[float, float, float, float]] = []  # actors drawn [px], tags avoid them
 
     def px(self, x: float, y: float) -> tuple[float, float]:
-        px, py = self.view.to_px(x, y)
-        return float(px) - self.left, float(py) - self.top
+        """Frame pixel of world point (x, y) [m]: :meth:`View.to_px`'s arithmetic on floats."""
+        v = self.view
+        return (x - v.x0) * v.scale - self.left, (v.y1 - y) * v.scale - self.top
 
     def poly(self, corners, fill, outline=None, width=1):
         self.draw.polygon([self.px(x, y) for x, y in corners], fill=fill, outline=outline, width=width)
@@ -180,7 +189,7 @@ class Canvas:
         when every spot covers one, the spot that covers fewest."""
         font = text_font(11)
         px, py = self.px(x, y)
-        w = self.draw.textlength(text, font=font) + 6
+        w = text_length(text, font, self.draw.mode) + 6
         h = 14
         x0, y0, x1, y1 = box
         spots = [(px - w / 2, y0 - h - 2), (px - w / 2, y1 + 2), (x1 + 4, py - h / 2), (x0 - 4 - w, py - h / 2)]
@@ -335,7 +344,7 @@ def _draw_offscreen(f: Canvas, a: Actor, i: int) -> None:
     dist = math.hypot(px - cx, py - cy) / f.view.scale
     text = f"{a.name} {dist:.0f} m"
     font = text_font(10)
-    w, h = f.draw.textlength(text, font=font) + 4, 13
+    w, h = text_length(text, font, f.draw.mode) + 4, 13
     tx = min(max(ex - w / 2, 2), FRAME_W - w - 2)
     ty = min(max(ey + (10 if ey < cy else -24), 2), MAP_H - h - 2)
     step = 14 if ty < cy else -14  # stack tags toward the middle instead of overlapping

@@ -5,6 +5,7 @@ carry the legend band (:mod:`regen.driving.render.legend`).
 
 Also what the frames have in common: the view (fixed, or following the ego on long runs), the
 key-frame picks (start, each FSM stage reached, end) and one GIF palette for all frames.
+:class:`Frames` draws the frames of one run, working out what they share once.
 """
 
 from __future__ import annotations
@@ -61,7 +62,7 @@ from regen.driving.render.roads import (
 )
 from regen.driving.world.setting import DrivingWorld
 
-__all__ = ["Story", "choose_view", "frame", "keyframe_steps", "palette", "story_of"]
+__all__ = ["Frames", "Story", "choose_view", "frame", "keyframe_steps", "palette", "story_of"]
 
 MARGIN = 10.0  # free space around the actors when the view fits them [m]
 MIN_FIT_SCALE = 4.0  # below this [px/m] a fixed view is unreadable; follow the ego instead
@@ -143,42 +144,72 @@ def _caption(img: Image.Image, story: Story, t: float, ego_speed: float | None) 
     media.draw_caption(img, MAP_H, story.bar, t, "" if ego_speed is None else f"ego {ego_speed:4.1f} m/s")
 
 
+class Frames:
+    """The frames of one run, drawn from what they all share, worked out once: the map window
+    with the legend band below it (a fixed view's never moves), the ego's path in background
+    pixels and the followed actor. ``Frames(...).draw(i)`` gives the same pixels as
+    :func:`frame`; an animation of a hundred frames pays for the shared parts once."""
+
+    def __init__(self, bg: Image.Image, view: View, actors: list[Actor], story: Story, times: np.ndarray,
+                 legend: Legend | None = None):
+        self.bg, self.view, self.actors, self.story, self.times = bg, view, actors, story, times
+        self.legend = legend
+        self.lead = next((a for a in actors if a.name == view.follow), None)
+        self.ego = next((a for a in actors if a.category == "ego"), None)
+        if self.ego is not None:  # the path in background pixels; a frame subtracts its window
+            xs, ys = view.to_px(self.ego.x, self.ego.y)
+            self.path = np.column_stack([np.asarray(xs, float), np.asarray(ys, float)])
+        self._base: tuple[tuple[int, int], Image.Image] | None = None
+
+    def window(self, i: int) -> tuple[int, int]:
+        """Top-left background pixel of step ``i``'s map window."""
+        if self.lead is None:
+            return 0, 0
+        return self.view.window(float(self.lead.x[i]), float(self.lead.y[i]))
+
+    def base(self, left: int, top: int) -> Image.Image:
+        """A fresh copy of the empty frame: the map window at (left, top) and the legend band."""
+        if self._base is None or self._base[0] != (left, top):
+            legend = self.legend
+            img = Image.new("RGB", (FRAME_W, FRAME_H + (legend.height if legend else 0)), GRASS)
+            if legend is not None:
+                img.paste(legend.image, (0, FRAME_H))
+            img.paste(self.bg.crop((left, top, left + FRAME_W, top + MAP_H)), (0, 0))
+            self._base = ((left, top), img)
+        return self._base[1].copy()
+
+    def draw(self, i: int, title: str | None = None) -> Image.Image:
+        """One full frame (map window and caption, and the legend band below them) at step ``i``."""
+        left, top = self.window(i)
+        img = self.base(left, top)
+        f = Canvas(img, self.view, left, top)
+        t = float(self.times[i])
+        ego = self.ego
+        if ego is not None and i > 0:  # the ego's path so far
+            pts = self.path[: i + 1] - (left, top)
+            f.draw.line(pts.ravel().tolist(), fill=(*EGO, 150), width=2)
+        shown = [a for a in self.actors if draw_actor(f, a, i, t)]
+        if ego is not None:
+            draw_gnss(f, ego, i)
+        boxes = {a.name: body_box(f, a, i) for a in shown}
+        f.bodies.extend(boxes.values())  # a tag covers no actor when it can help it
+        for a in reversed(shown):  # ego first: its tag gets the best spot
+            color = BODY.get(a.category, (240, 240, 240))
+            mind = a.state("driver_state", i)  # a mental state that changes what it does is shown
+            f.label(a.name + (f" ({mind})" if mind == "distracted" else ""), float(a.x[i]), float(a.y[i]),
+                    boxes[a.name], color)
+        _draw_scale_bar(f)
+        if title:
+            media.draw_title(img, title)
+        _caption(img, self.story, t, float(ego.speed[i]) if ego is not None else None)
+        return img
+
+
 def frame(bg: Image.Image, view: View, actors: list[Actor], story: Story, times: np.ndarray,
-           i: int, title: str | None = None, legend: Legend | None = None) -> Image.Image:
-    """One full frame (map window and caption, and the ``legend`` band below them) at step ``i``."""
-    lead = next((a for a in actors if a.name == view.follow), None)
-    if lead is not None:
-        left, top = view.window(float(lead.x[i]), float(lead.y[i]))
-    else:
-        left, top = 0, 0
-    img = Image.new("RGB", (FRAME_W, FRAME_H + (legend.height if legend else 0)), GRASS)
-    if legend is not None:
-        img.paste(legend.image, (0, FRAME_H))
-    img.paste(bg.crop((left, top, left + FRAME_W, top + MAP_H)), (0, 0))
-    f = Canvas(img, view, left, top)
-    t = float(times[i])
-    ego = next((a for a in actors if a.category == "ego"), None)
-    if ego is not None and i > 0:  # the ego's path so far
-        pts = [f.px(float(px), float(py)) for px, py in zip(ego.x[: i + 1], ego.y[: i + 1], strict=True)]
-        f.draw.line(pts, fill=(*EGO, 150), width=2)
-    shown = []
-    for a in actors:
-        if draw_actor(f, a, i, t):
-            shown.append(a)
-    if ego is not None:
-        draw_gnss(f, ego, i)
-    boxes = {a.name: body_box(f, a, i) for a in shown}
-    f.bodies.extend(boxes.values())  # a tag covers no actor when it can help it
-    for a in reversed(shown):  # ego first: its tag gets the best spot
-        color = BODY.get(a.category, (240, 240, 240))
-        mind = a.state("driver_state", i)  # a mental state that changes what it does is shown
-        f.label(a.name + (f" ({mind})" if mind == "distracted" else ""), float(a.x[i]), float(a.y[i]),
-                boxes[a.name], color)
-    _draw_scale_bar(f)
-    if title:
-        media.draw_title(img, title)
-    _caption(img, story, t, float(ego.speed[i]) if ego is not None else None)
-    return img
+          i: int, title: str | None = None, legend: Legend | None = None) -> Image.Image:
+    """One full frame (map window and caption, and the ``legend`` band below them) at step ``i``;
+    for many frames of one run, :class:`Frames` shares the work."""
+    return Frames(bg, view, actors, story, times, legend).draw(i, title)
 
 
 def keyframe_steps(times: np.ndarray, story: Story, count: int) -> list[tuple[int, str]]:

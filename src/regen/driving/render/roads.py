@@ -24,11 +24,12 @@ from regen.errors import DependencyNotInstalled, RegenError
 
 log = logging.getLogger(__name__)
 
-__all__ = ["MapLayers", "View", "background", "map_layers"]
+__all__ = ["MapLayers", "View", "background", "map_artists", "map_layers"]
 
 FRAME_W, FRAME_H = 640, 480  # output frame [px]
 CAPTION_H = media.CAPTION_H  # caption band below the map [px]
 MAP_H = FRAME_H - CAPTION_H  # map area [px]
+DPI = 100  # [dots/inch] of the figure the map is drawn in; widths of lines are in points
 
 # Colors (RGB) of the ground.
 GRASS = (226, 231, 218)
@@ -183,41 +184,57 @@ def _polygons(geom) -> list:
 
 
 def background(layers: MapLayers | None, view: View) -> Image.Image:
-    """The static map at the view's scale, drawn once (antialiased) with matplotlib's Agg canvas."""
+    """The static map at the view's scale, drawn once (antialiased) with matplotlib's Agg canvas.
+
+    The shapes are placed on the figure itself through the transform an axes spanning it with
+    the view's limits would use (the same pixels): an axes' ticks, spines and data limits,
+    which nothing here shows, cost more than drawing the map.
+    """
     if layers is None:
         img = Image.new("RGB", (view.width, view.height), GRASS)
         _grid(img, view)
         return img
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
+    from matplotlib.transforms import Bbox, BboxTransformFrom, BboxTransformTo
+
+    fig = Figure(figsize=(view.width / DPI, view.height / DPI), dpi=DPI, facecolor=_rgb01(GRASS))
+    canvas = FigureCanvasAgg(fig)
+    x1, y0 = view.x0 + view.width / view.scale, view.y1 - view.height / view.scale
+    limits = Bbox([[view.x0, y0], [x1, view.y1]])
+    for artist in map_artists(layers, view, BboxTransformFrom(limits) + BboxTransformTo(fig.bbox)):
+        fig.add_artist(artist)
+    canvas.draw()
+    rgba = np.asarray(canvas.buffer_rgba())
+    return Image.fromarray(rgba[..., :3].copy(), "RGB")
+
+
+def map_artists(layers: MapLayers, view: View, transform) -> list:
+    """The matplotlib shapes of the map, bottom first, placed by ``transform`` ([m] -> pixels of
+    a :data:`DPI` figure): ground areas, then dashed lane lines, white curbs, yellow centres."""
+    from matplotlib.lines import Line2D
     from matplotlib.patches import PathPatch
 
-    dpi = 100
-    fig = Figure(figsize=(view.width / dpi, view.height / dpi), dpi=dpi, facecolor=_rgb01(GRASS))
-    canvas = FigureCanvasAgg(fig)
-    ax = fig.add_axes((0, 0, 1, 1))
-    ax.set_axis_off()
-    ax.set_xlim(view.x0, view.x0 + view.width / view.scale)
-    ax.set_ylim(view.y1 - view.height / view.scale, view.y1)
+    out = []
     for group, color in ((layers.sidewalks, SIDEWALK), (layers.shoulders, SHOULDER),
                          (layers.roads, ROAD), (layers.intersections, JUNCTION),
                          (layers.crossings, CROSSING)):
         for geom in group:
             for poly in _polygons(geom):
-                ax.add_patch(PathPatch(_poly_path(poly), facecolor=_rgb01(color),
-                                       edgecolor=_rgb01(color), linewidth=0.5))
-    pt_per_m = view.scale * 72.0 / dpi  # line widths and dashes are in points
+                out.append(PathPatch(_poly_path(poly), facecolor=_rgb01(color), edgecolor=_rgb01(color),
+                                     linewidth=0.5, transform=transform))
+    pt_per_m = view.scale * 72.0 / DPI  # line widths and dashes are in points
     mark_w = max(0.75, 0.15 * pt_per_m)
     dash = (3.0 * pt_per_m / mark_w, 6.0 * pt_per_m / mark_w)  # 3 m dashes, 6 m gaps
-    for line in layers.lane_lines:
-        ax.plot(line[:, 0], line[:, 1], color=_rgb01(MARK_WHITE), lw=mark_w, dashes=dash)
-    for line in layers.curb_lines:
-        ax.plot(line[:, 0], line[:, 1], color=_rgb01(MARK_WHITE), lw=mark_w)
-    for line in layers.center_lines:
-        ax.plot(line[:, 0], line[:, 1], color=_rgb01(MARK_YELLOW), lw=mark_w * 1.5)
-    canvas.draw()
-    rgba = np.asarray(canvas.buffer_rgba())
-    return Image.fromarray(rgba[..., :3].copy(), "RGB")
+    for lines, color, width, dashes in ((layers.lane_lines, MARK_WHITE, mark_w, dash),
+                                        (layers.curb_lines, MARK_WHITE, mark_w, None),
+                                        (layers.center_lines, MARK_YELLOW, mark_w * 1.5, None)):
+        for line in lines:
+            mark = Line2D(line[:, 0], line[:, 1], color=_rgb01(color), lw=width, transform=transform)
+            if dashes is not None:
+                mark.set_dashes(dashes)
+            out.append(mark)
+    return out
 
 
 def _grid(img: Image.Image, view: View) -> None:

@@ -4,7 +4,8 @@ The road is drawn once from the OpenDRIVE map into a background image
 (:mod:`regen.driving.render.roads`); each frame then crops that background and draws only the
 actors (:mod:`regen.driving.render.actors`) and a caption (:mod:`regen.driving.render.frames`)
 with Pillow, which keeps drawing far cheaper than the simulation it shows. The files are written
-by the shared media writer (:mod:`regen.media`).
+by the shared media writer (:mod:`regen.media`), which stores of each GIF frame only what
+changed since the one before.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from regen.core.scenario import Scenario
 from regen.core.trace import Trace
 from regen.core.verdict import Verdict
 from regen.driving.render.actors import actors_from_trace
-from regen.driving.render.frames import choose_view, frame, keyframe_steps, palette, story_of
+from regen.driving.render.frames import Frames, choose_view, keyframe_steps, palette, story_of
 from regen.driving.render.legend import legend_entries, legend_image
 from regen.driving.render.roads import background, map_layers
 from regen.errors import ConfigError
@@ -34,6 +35,7 @@ ANIMATION_FILE = "bird_eye.gif"
 KEYFRAMES_FILE = "keyframes.png"
 MAX_FRAMES = 200  # more frames than this only make the GIF bigger, not clearer
 KEYFRAME_GAP = 4  # [px] between tiles of the key-frame strip
+KEYFRAMES_ZLIB = 6  # zlib level of the strip: ~20 ms less a run than the smallest file, ~5% bigger
 
 
 @dataclass(frozen=True)
@@ -81,14 +83,16 @@ def render_scenario(scenario: Scenario, trace: Trace, verdict: Verdict, out_dir:
 
     steps = media.animation_steps(times, options.animation)
     legend = legend_image(legend_entries(actors, view))
-    gif = media.write_gif(out_dir / ANIMATION_FILE,
-                          (frame(bg, view, actors, story, times, i, legend=legend) for i in steps),
+    animation = Frames(bg, view, actors, story, times, legend)
+    gif = media.write_gif(out_dir / ANIMATION_FILE, (animation.draw(i) for i in steps),
                           media.held(len(steps), media.frame_ms(times, steps, options.animation)),
                           palette=palette(bg))
 
     picks = keyframe_steps(times, story, max(1, options.keyframes))
-    tiles = [frame(bg, view, actors, story, times, i, title=title) for i, title in picks]
-    png = media.write_png(out_dir / KEYFRAMES_FILE, media.strip(tiles, gap_px=KEYFRAME_GAP))
+    still = Frames(bg, view, actors, story, times)  # key frames carry no legend
+    tiles = [still.draw(i, title=title) for i, title in picks]
+    png = media.write_png(out_dir / KEYFRAMES_FILE, media.strip(tiles, gap_px=KEYFRAME_GAP),
+                          compress_level=KEYFRAMES_ZLIB)
     log.info("rendered %s: %d GIF frames (%.0f kB), %d key frames", scenario.id, len(steps),
              gif.stat().st_size / 1024, len(tiles))
     return {ANIMATION: gif, KEYFRAMES: png}
