@@ -6,13 +6,14 @@ that says what to do, with no traceback.
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import functools
 import json
 import logging
 import os
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Annotated, Any, TypeVar
 
 import typer
@@ -245,6 +246,17 @@ runs_app = typer.Typer(no_args_is_help=True, help="List and show run folders.", 
 app.add_typer(runs_app, name="runs")
 
 
+@contextlib.contextmanager
+def _resumable(out: str) -> Iterator[None]:
+    """Ctrl-C during a run: say that finished scenarios are kept and how to resume; exit 130."""
+    try:
+        yield
+    except KeyboardInterrupt:
+        err_console.print(f"[yellow]interrupted: finished scenarios are saved in {shown(out)}; "
+                          "run the same command again to resume[/]")
+        raise typer.Exit(130) from None
+
+
 @app.command("generate", **help_for("generate"))
 @friendly
 def generate_cmd(
@@ -297,14 +309,8 @@ def generate_cmd(
                            forced_causes=cause or [], seed=seed,
                            workers=workers, pictures=pictures, llm_timeout=llm_timeout,
                            export_options=export_options(b.domain, no_ego_story))
-    with make_progress(log, console=err_console, out=console) as progress:
-        try:
-            result = generate(b, out_dir, settings=settings, replay=replay, fresh=fresh,
-                              on_event=progress.on_event)
-        except KeyboardInterrupt:
-            err_console.print(f"[yellow]interrupted: finished scenarios are saved in {shown(out)}; "
-                              "run the same command again to resume[/]")
-            raise typer.Exit(130) from None
+    with make_progress(log, console=err_console, out=console) as progress, _resumable(out):
+        result = generate(b, out_dir, settings=settings, replay=replay, fresh=fresh, on_event=progress.on_event)
     if log != "jsonl":
         _print_generated(result, out_dir)
 
@@ -339,14 +345,9 @@ def batch_cmd(
     out_dir = out_folder(out)
     if log not in ("rich", "quiet", "jsonl"):
         raise ConfigError(f"--log must be rich, quiet or jsonl, not {log!r}")
-    with make_batch_progress(log, console=err_console, out=console) as progress:
-        try:
-            record = run_batch(spec, out_dir, ray=ray, workers=workers, replay=replay, fresh=fresh,
-                               on_event=progress.on_event)
-        except KeyboardInterrupt:
-            err_console.print(f"[yellow]interrupted: finished scenarios are saved in {shown(out)}; "
-                              "run the same command again to resume[/]")
-            raise typer.Exit(130) from None
+    with make_batch_progress(log, console=err_console, out=console) as progress, _resumable(out):
+        record = run_batch(spec, out_dir, ray=ray, workers=workers, replay=replay, fresh=fresh,
+                           on_event=progress.on_event)
     if log != "jsonl":
         print_batch(console, record, out_dir)
     if record.status == "failed":

@@ -132,16 +132,18 @@ class RichProgress(_Sink):
 
 
 @contextmanager
-def make_progress(mode: str, *, console: Console, out: Console) -> Iterator[_Sink]:
+def make_progress(mode: str, *, console: Console, out: Console, plain: Any = PlainProgress,
+                  rich: Any = RichProgress) -> Iterator[Any]:
     """The sink of ``--log MODE``: 'quiet', 'jsonl' (events on ``out``), else 'rich': a live
-    display on ``console`` when it is a terminal, plain lines (:class:`PlainProgress`) when not."""
+    display on ``console`` when it is a terminal (``rich``, a sink with a ``live``), plain lines
+    (``plain``) when not. A batch gives its own two (:mod:`regen.batch.progress`)."""
     if mode == "quiet":
         yield QuietProgress()
     elif mode == "jsonl":
         yield JsonLinesProgress(out)
     elif not console.is_terminal or console.is_dumb_terminal:
-        yield PlainProgress(console)
+        yield plain(console)
     else:
-        sink = RichProgress(console)
+        sink = rich(console)
         with sink.live:
             yield sink

@@ -4,8 +4,7 @@ plain lines in a log or a pipe, quiet, or the events as JSON lines)."""
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from typing import Any
 
@@ -13,7 +12,7 @@ from rich.console import Console
 from rich.live import Live
 from rich.table import Table
 
-from regen.progress import JsonLinesProgress, QuietProgress
+from regen.progress import make_progress
 
 
 @dataclass
@@ -99,19 +98,10 @@ class BatchRichProgress:
         self.live.update(self._render())
 
 
-@contextmanager
-def make_batch_progress(mode: str, *, console: Console, out: Console) -> Iterator[Any]:
-    """The sink of ``--log MODE`` for a batch (as :func:`regen.progress.make_progress`)."""
-    if mode == "quiet":
-        yield QuietProgress()
-    elif mode == "jsonl":
-        yield JsonLinesProgress(out)
-    elif not console.is_terminal or console.is_dumb_terminal:
-        yield BatchPlainProgress(console)
-    else:
-        sink = BatchRichProgress(console)
-        with sink.live:
-            yield sink
+def make_batch_progress(mode: str, *, console: Console, out: Console) -> AbstractContextManager[Any]:
+    """The sink of ``--log MODE`` for a batch (:func:`regen.progress.make_progress` with the
+    batch's plain lines and live table)."""
+    return make_progress(mode, console=console, out=out, plain=BatchPlainProgress, rich=BatchRichProgress)
 
 
 __all__ = ["BatchPlainProgress", "BatchRichProgress", "make_batch_progress"]

@@ -33,6 +33,13 @@ from pydantic import Field, ValidationError
 
 from regen import domains
 from regen.batch.spec import PlannedBehavior, plan, read_spec
+from regen.batch.summary import (
+    BATCH_FILE,
+    REPORT_FILE,
+    SUMMARY_FILE,
+    summarize_batch,
+    write_batch_report,
+)
 from regen.core.base import Model
 from regen.core.io import write_json
 from regen.errors import ConfigError, RegenError, RunError
@@ -47,9 +54,8 @@ from regen.runfolder import RunFolder, now, read_json
 
 log = logging.getLogger(__name__)
 
-BATCH_FILE = "batch.json"
 #: the batch's own top-level files (``--fresh`` removes them, with what each run wrote)
-BATCH_FILES = (BATCH_FILE, "summary.json", "report.html")
+BATCH_FILES = (BATCH_FILE, SUMMARY_FILE, REPORT_FILE)
 #: behaviors asking one provider's model at once: the offline model (one process, one model in
 #: memory) answers one call at a time; a remote provider takes a few
 MODEL_LIMITS = {"local": 1}
@@ -246,8 +252,6 @@ class BatchJob:
         rec.wall_seconds += time.perf_counter() - self.started
         self.save()
         try:
-            from regen.batch.summary import summarize_batch, write_batch_report
-
             write_batch_report(self.out, summarize_batch(self.out))
         except Exception:
             log.warning("the batch summary or report of %s could not be written", self.out, exc_info=True)
