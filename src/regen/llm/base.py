@@ -33,8 +33,11 @@ class Sampling:
 @dataclass
 class Completion:
     text: str
-    input_tokens: int = 0
+    input_tokens: int = 0  # prompt tokens, whether evaluated or reused
     output_tokens: int = 0
+    #: Prompt tokens the provider did not evaluate (an in-process model reading a prefix it
+    #: has kept); not cached: a cached call reports 0.
+    reused_input_tokens: int = 0
 
 
 class Provider(ABC):
@@ -44,6 +47,9 @@ class Provider(ABC):
     model: str = ""
     #: Whether calls may run concurrently (an in-process model is one at a time).
     concurrent: bool = True
+    #: Whether :meth:`complete` takes a ``purpose`` keyword: the kind of call (``event_edges``),
+    #: a hint for a provider that keeps state per kind of prompt. Others are called without it.
+    takes_purpose: bool = False
 
     @property
     def id(self) -> str:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import threading
@@ -162,12 +163,14 @@ class LLM:
                 f"replay mode: no cached answer for a '{purpose}' call to {self.provider.id} "
                 f"(key {key[:12]}). Run without --replay to call the model, or use the cache "
                 "file of the run you are replaying.")
+        hint: dict[str, Any] = {"purpose": purpose} if self.provider.takes_purpose else {}
         start = time.perf_counter()
         if self.provider.concurrent:
-            completion = self.provider.complete(messages, schema=schema, sampling=self.sampling)
+            completion = self.provider.complete(messages, schema=schema, sampling=self.sampling, **hint)
         else:
             with self._provider_lock:
-                completion = self.provider.complete(messages, schema=schema, sampling=self.sampling)
+                completion = self.provider.complete(messages, schema=schema, sampling=self.sampling,
+                                                    **hint)
         latency = time.perf_counter() - start
         completion = self._clean(completion)
         self.cache.put(key, self.provider.id, purpose, completion, latency)
@@ -182,8 +185,7 @@ class LLM:
         text = clean_text(completion.text)
         if text == completion.text:
             return completion
-        return Completion(text=text, input_tokens=completion.input_tokens,
-                          output_tokens=completion.output_tokens)
+        return dataclasses.replace(completion, text=text)
 
     def ask(self, messages: str | Sequence[Message], schema: type[T], *, purpose: str = "call",
             system: str | None = None) -> Answered[T]:

@@ -25,6 +25,7 @@ from regen.llm.model_files import (
     model_hint,
     verify,
 )
+from regen.llm.providers.local_prefix import attach
 from regen.llm.providers.local_sampler import llama_class
 
 log = logging.getLogger(__name__)
@@ -70,12 +71,14 @@ def load_llama(path: Path, n_ctx: int = 4096) -> Any:
                                      f"it may be truncated or of an unsupported kind: "
                                      f"{model_hint()}") from None
             log.info("loaded %s in %.1f s", path.name, time.perf_counter() - start)
+            attach(_LOADED[key], path, n_ctx)
         return _LOADED[key]
 
 
 class LocalProvider(Provider):
     name = "local"
     concurrent = False
+    takes_purpose = True  # each purpose's prompt prefix is kept (regen.llm.providers.local_prefix)
 
     def __init__(self, model: str = "", *, n_ctx: int = 4096, timeout: float | None = None):
         # ``timeout`` is accepted so that one option fits every provider; an in-process call
@@ -102,7 +105,9 @@ class LocalProvider(Provider):
         return load_llama(self.path(), self.n_ctx)
 
     def complete(self, messages: list[Message], *, schema: dict[str, Any] | None,
-                 sampling: Sampling) -> Completion:
+                 sampling: Sampling, purpose: str = "call") -> Completion:
+        """One chat completion; the prompt starts from the longest prefix the model has kept
+        (``purpose`` names whose state this call's context is kept as)."""
         llm = self.llama()
         kwargs: dict[str, Any] = {"messages": messages, "temperature": sampling.temperature,
                                   "max_tokens": sampling.max_tokens, "seed": sampling.seed}
@@ -110,11 +115,13 @@ class LocalProvider(Provider):
             kwargs["top_p"] = sampling.top_p
         if schema is not None:
             kwargs["response_format"] = {"type": "json_object", "schema": schema}
-        out = llm.create_chat_completion(**kwargs)
+        with llm.prefix_states.call(llm, purpose) as count:
+            out = llm.create_chat_completion(**kwargs)
         usage = out.get("usage") or {}
         return Completion(text=out["choices"][0]["message"]["content"] or "",
                           input_tokens=int(usage.get("prompt_tokens", 0)),
-                          output_tokens=int(usage.get("completion_tokens", 0)))
+                          output_tokens=int(usage.get("completion_tokens", 0)),
+                          reused_input_tokens=count.reused)
 
     option_probs_supported = True
 
@@ -139,10 +146,11 @@ class LocalProvider(Provider):
         if len(set(firsts)) != len(firsts):
             raise ValueError(f"options {options} share a first token; they cannot be told apart")
         tokens = llm.tokenize(prompt.encode("utf-8"), add_bos=False, special=True)
-        llm.reset()  # a fresh context: a following completion reuses this prompt as its prefix
-        llm.eval(tokens)
-        logits = np.ctypeslib.as_array(llama_cpp.llama_get_logits_ith(llm._ctx.ctx, -1),  # noqa: SLF001
-                                       shape=(llm.n_vocab(),)).astype(np.float64)
+        with llm.prefix_states.lock:
+            llm.reset()  # a fresh context: a following completion reuses this prompt as its prefix
+            llm.eval(tokens)
+            logits = np.ctypeslib.as_array(llama_cpp.llama_get_logits_ith(llm._ctx.ctx, -1),  # noqa: SLF001
+                                           shape=(llm.n_vocab(),)).astype(np.float64)
         chosen = logits[firsts] - logits.max()
         probs = np.exp(chosen) / np.exp(chosen).sum()
         return {o: float(p) for o, p in zip(options, probs, strict=True)}, len(tokens)

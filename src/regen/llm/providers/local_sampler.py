@@ -69,11 +69,14 @@ class GrammarFirstGreedy:
 
 @functools.cache
 def llama_class() -> type:
-    """``llama_cpp.Llama`` whose greedy, grammar-constrained calls use :class:`GrammarFirstGreedy`;
-    every other setting keeps llama-cpp-python's own sampler chain."""
+    """``llama_cpp.Llama`` whose greedy, grammar-constrained calls use :class:`GrammarFirstGreedy`
+    (every other setting keeps llama-cpp-python's own sampler chain) and whose prompts can start
+    from a kept prefix (:class:`~regen.llm.providers.local_prefix.PrefixHooks`)."""
     import llama_cpp
 
-    class Llama(llama_cpp.Llama):
+    from regen.llm.providers.local_prefix import PrefixHooks
+
+    class Llama(PrefixHooks, llama_cpp.Llama):
         def _init_sampler(self, **kw: Any) -> Any:
             neutral = (kw.get("repeat_penalty", 1.0) == 1.0 and not kw.get("frequency_penalty")
                        and not kw.get("presence_penalty") and kw.get("logits_processor") is None)
