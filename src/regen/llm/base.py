@@ -6,18 +6,62 @@ import logging
 import random
 import time
 from abc import ABC, abstractmethod
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, TypedDict, TypeVar
 
-from regen.errors import ProviderUnreachableError
+from regen.errors import ConfigError, ProviderUnreachableError
 
 log = logging.getLogger(__name__)
 
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"  # the first 8 bytes of every PNG file
+TEXT_ONLY_HINT = ("use --text-only or an image-capable provider "
+                  "(--llm openai:<model> or anthropic:<model>)")
 
-class Message(TypedDict):
+
+class _Text(TypedDict):
     role: str  # 'system' | 'user' | 'assistant'
     content: str
+
+
+class Message(_Text, total=False):
+    #: PNG files shown with the text (user messages only), for providers that
+    #: :attr:`~Provider.accepts_images`; absent (or empty) in a text-only message, whose cache
+    #: key and request body are then exactly those of a message without the field.
+    images: list[bytes]
+
+
+def image_message(text: str, pngs: Sequence[bytes]) -> Message:
+    """A user message showing ``pngs`` (the bytes of PNG files) with ``text``; ConfigError for
+    bytes that are not a PNG."""
+    if isinstance(pngs, bytes | bytearray):
+        raise ConfigError("image_message takes a list of PNG files' bytes; put one in a list")
+    message: Message = {"role": "user", "content": text, "images": list(pngs)}
+    images_of(message)
+    return message
+
+
+def check_png(data: object, what: str = "an image") -> bytes:
+    """``data`` if it is the bytes of a PNG file, else ConfigError (only PNG is sent, so that
+    every provider is told the same media type)."""
+    if not isinstance(data, bytes | bytearray):
+        raise ConfigError(f"{what} of a message is {type(data).__name__}, not the bytes of a PNG file")
+    if not data.startswith(PNG_SIGNATURE):
+        raise ConfigError(f"{what} of a message is not a PNG file (it starts with {bytes(data[:8])!r}); "
+                          "pass the bytes of a PNG file (convert other formats first)")
+    return bytes(data)
+
+
+def images_of(message: Message) -> list[bytes]:
+    """The PNGs of ``message`` (none for a text-only one), each checked with :func:`check_png`;
+    ConfigError for images on a message that is not the user's (no provider takes them)."""
+    images = message.get("images") or []
+    if not isinstance(images, list | tuple):  # one PNG where a list of them belongs
+        raise ConfigError(f"the images of a message are a list of PNG files' bytes, not "
+                          f"{type(images).__name__}")
+    if images and message.get("role") != "user":
+        raise ConfigError(f"a {message.get('role')!r} message carries images; only user messages may")
+    return [check_png(png, f"image {i + 1}") for i, png in enumerate(images)]
 
 
 @dataclass(frozen=True)
@@ -50,6 +94,10 @@ class Provider(ABC):
     #: Whether :meth:`complete` takes a ``purpose`` keyword: the kind of call (``event_edges``),
     #: a hint for a provider that keeps state per kind of prompt. Others are called without it.
     takes_purpose: bool = False
+    #: Whether messages may carry images (``Message["images"]``). One that reads text only
+    #: refuses them (:meth:`check_images`) instead of dropping them; callers that may meet
+    #: such a provider check this flag and ask in text only.
+    accepts_images: bool = False
 
     @property
     def id(self) -> str:
@@ -59,6 +107,14 @@ class Provider(ABC):
     def complete(self, messages: list[Message], *, schema: dict[str, Any] | None,
                  sampling: Sampling) -> Completion:
         """One model call. ``schema`` is the JSON schema the answer must follow (if supported)."""
+
+    def check_images(self, messages: Sequence[Message]) -> None:
+        """ConfigError if a message carries an image that is not a PNG, or any image while this
+        provider reads text only (:attr:`accepts_images`)."""
+        count = sum(len(images_of(m)) for m in messages)
+        if count and not self.accepts_images:
+            raise ConfigError(f"{self.id} reads text only and this call carries {count} image(s); "
+                              + TEXT_ONLY_HINT)
 
     #: Whether :meth:`option_probs` can read the model's next-token probabilities.
     option_probs_supported: bool = False

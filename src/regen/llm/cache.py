@@ -1,6 +1,8 @@
 """SQLite cache of model calls, keyed by a hash of everything that determines the answer.
 
 The key covers provider, model, messages, JSON schema and sampling settings, never API keys.
+A message's images enter it as their SHA-256 (a different image is a different call); neither
+the key nor the entry holds an image's bytes. A text-only message hashes as it always has.
 Entries store the answer text (as cleaned by the client) with token counts and latency, so a
 replayed run reports the same usage as the original one.
 
@@ -26,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from regen.errors import CacheCorruptedError, ConfigError
-from regen.llm.base import Completion, Message, Sampling
+from regen.llm.base import Completion, Message, Sampling, images_of
 from regen.llm.sanitize import clean_text
 from regen.promises.folders import make_folder
 
@@ -46,10 +48,21 @@ CREATE TABLE IF NOT EXISTS calls (
 _COLUMNS = "key, provider, purpose, response, input_tokens, output_tokens, latency, created, failed"
 
 
+def _keyed(message: Message) -> dict[str, Any]:
+    """``message`` as the cache key reads it: images as ``sha256:<hex>`` of their bytes, and a
+    message without images (or with an empty list) exactly as one that never had the field."""
+    images = images_of(message)
+    keyed: dict[str, Any] = {k: v for k, v in message.items() if k != "images"}
+    if images:
+        keyed["images"] = ["sha256:" + hashlib.sha256(png).hexdigest() for png in images]
+    return keyed
+
+
 def cache_key(provider_id: str, messages: list[Message], schema: dict[str, Any] | None,
               sampling: Sampling) -> str:
-    payload = json.dumps({"provider": provider_id, "messages": messages, "schema": schema,
-                          "sampling": asdict(sampling)}, sort_keys=True, ensure_ascii=False)
+    payload = json.dumps({"provider": provider_id, "messages": [_keyed(m) for m in messages],
+                          "schema": schema, "sampling": asdict(sampling)},
+                         sort_keys=True, ensure_ascii=False)
     # surrogatepass: a prompt may carry a lone surrogate (undecodable bytes in a command-line
     # argument); valid text hashes exactly as with plain UTF-8
     return hashlib.sha256(payload.encode("utf-8", "surrogatepass")).hexdigest()

@@ -148,7 +148,11 @@ class LLM:
 
     def complete(self, messages: list[Message], schema: dict[str, Any] | None, *,
                  purpose: str = "call", reask: bool = False) -> tuple[Completion, str, bool]:
-        """A raw cached call: (completion, cache key, whether it came from the cache)."""
+        """A raw cached call: (completion, cache key, whether it came from the cache).
+
+        Images in ``messages`` must be PNGs and the provider must accept them
+        (:attr:`Provider.accepts_images`), else ConfigError before the cache is read."""
+        self.provider.check_images(messages)
         key = cache_key(self.provider.id, messages, schema, self.sampling)
         # an answer that failed validation for good is replayed, never served to a run that can
         # ask again (regen.llm.cache)
@@ -243,6 +247,7 @@ class LLM:
         if system:
             msgs.insert(0, {"role": "system", "content": system})
         asked = {"weigh": list(options), "prefix": prefix}  # in the schema's place in the cache key
+        self.provider.check_images(msgs)
         key = cache_key(self.provider.id, msgs, asked, self.sampling)
         hit = self.cache.get(key)
         if hit is None and self.replay:

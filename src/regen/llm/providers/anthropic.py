@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import base64
 import json
 import os
 from typing import Any
@@ -9,13 +10,30 @@ from typing import Any
 import httpx
 
 from regen.errors import MissingAPIKeyError, ProviderResponseError
-from regen.llm.base import Completion, Message, Provider, Sampling, with_retries
+from regen.llm.base import Completion, Message, Provider, Sampling, images_of, with_retries
 from regen.llm.providers.http import post_json, request_timeout, snippet, token_count
 from regen.llm.providers.keys import is_official, pick_key
 
 API_URL = "https://api.anthropic.com/v1/messages"
 OFFICIAL_KEY_VAR = "ANTHROPIC_API_KEY"  # sent only to API_URL's host
 CUSTOM_KEY_VAR = "REGEN_ANTHROPIC_API_KEY"  # sent only to a custom messages URL
+
+
+def wire_message(message: Message) -> dict[str, Any]:
+    """``message`` as the Messages API takes it: a text-only one as it is; one with images as
+    content blocks, each PNG a base64 ``image`` block, then the text (images before the text,
+    as Anthropic advises)."""
+    images = images_of(message)
+    wire: dict[str, Any] = {k: v for k, v in message.items() if k != "images"}
+    if images:
+        blocks: list[dict[str, Any]] = [
+            {"type": "image", "source": {"type": "base64", "media_type": "image/png",
+                                         "data": base64.b64encode(png).decode("ascii")}}
+            for png in images]
+        if message["content"]:
+            blocks.append({"type": "text", "text": message["content"]})
+        wire["content"] = blocks
+    return wire
 
 
 class AnthropicProvider(Provider):
@@ -28,9 +46,12 @@ class AnthropicProvider(Provider):
 
     ``timeout`` [s] per request: the argument, else ``REGEN_LLM_TIMEOUT``, else 120; a request
     that times out is tried ``attempts`` times in all.
+
+    Images (``Message["images"]``) go as base64 ``image`` blocks before the message's text.
     """
 
     name = "anthropic"
+    accepts_images = True
 
     def __init__(self, model: str, *, api_key: str | None = None, base_url: str | None = None,
                  timeout: float | None = None, attempts: int = 4, base_delay: float = 0.5):
@@ -51,11 +72,12 @@ class AnthropicProvider(Provider):
 
     def complete(self, messages: list[Message], *, schema: dict[str, Any] | None,
                  sampling: Sampling) -> Completion:
+        self.check_images(messages)
         system = "\n\n".join(m["content"] for m in messages if m["role"] == "system")
         body: dict[str, Any] = {
             "model": self.model, "max_tokens": sampling.max_tokens,
             "temperature": sampling.temperature,
-            "messages": [m for m in messages if m["role"] != "system"],
+            "messages": [wire_message(m) for m in messages if m["role"] != "system"],
         }
         if system:
             body["system"] = system

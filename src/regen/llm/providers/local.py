@@ -12,11 +12,12 @@ import logging
 import os
 import threading
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from regen.errors import DependencyNotInstalled, ModelFileError
-from regen.llm.base import Completion, Message, Provider, Sampling
+from regen.errors import ConfigError, DependencyNotInstalled, ModelFileError
+from regen.llm.base import TEXT_ONLY_HINT, Completion, Message, Provider, Sampling
 from regen.llm.model_files import (
     DEFAULT_MODEL,
     MODELS,
@@ -79,6 +80,7 @@ class LocalProvider(Provider):
     name = "local"
     concurrent = False
     takes_purpose = True  # each purpose's prompt prefix is kept (regen.llm.providers.local_prefix)
+    accepts_images = False  # a text-only GGUF model: a call with images is refused, never trimmed
 
     def __init__(self, model: str = "", *, n_ctx: int = 4096, timeout: float | None = None):
         # ``timeout`` is accepted so that one option fits every provider; an in-process call
@@ -96,6 +98,11 @@ class LocalProvider(Provider):
             self.model = path.name
             self._path = path
 
+    def check_images(self, messages: Sequence[Message]) -> None:
+        """ConfigError for a call with images: the offline model has no vision."""
+        if any(m.get("images") for m in messages):
+            raise ConfigError("the offline model reads text only; " + TEXT_ONLY_HINT)
+
     def path(self) -> Path:
         if self._path is None:
             self._path = ensure_model(self.model)
@@ -108,6 +115,7 @@ class LocalProvider(Provider):
                  sampling: Sampling, purpose: str = "call") -> Completion:
         """One chat completion; the prompt starts from the longest prefix the model has kept
         (``purpose`` names whose state this call's context is kept as)."""
+        self.check_images(messages)
         llm = self.llama()
         kwargs: dict[str, Any] = {"messages": messages, "temperature": sampling.temperature,
                                   "max_tokens": sampling.max_tokens, "seed": sampling.seed}
@@ -129,6 +137,7 @@ class LocalProvider(Provider):
                      ) -> tuple[dict[str, float], int]:
         """One forward pass over the chat prompt (the model's own chat template) and ``prefix``;
         each option's probability is its first token's, renormalised over the options."""
+        self.check_images(messages)
         import llama_cpp
         import numpy as np
         from llama_cpp.llama_chat_format import Jinja2ChatFormatter

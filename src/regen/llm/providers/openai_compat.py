@@ -3,19 +3,34 @@ llama.cpp server, LM Studio) through a base URL."""
 
 from __future__ import annotations
 
+import base64
 import os
 from typing import Any
 
 import httpx
 
 from regen.errors import MissingAPIKeyError, ProviderResponseError
-from regen.llm.base import Completion, Message, Provider, Sampling, with_retries
+from regen.llm.base import Completion, Message, Provider, Sampling, images_of, with_retries
 from regen.llm.providers.http import post_json, request_timeout, snippet, token_count
 from regen.llm.providers.keys import is_official, pick_key
 
 DEFAULT_BASE_URL = "https://api.openai.com/v1"
 OFFICIAL_KEY_VAR = "OPENAI_API_KEY"  # sent only to DEFAULT_BASE_URL's host
 CUSTOM_KEY_VAR = "REGEN_OPENAI_API_KEY"  # sent only to a custom base URL
+
+
+def wire_message(message: Message) -> dict[str, Any]:
+    """``message`` as chat completions take it: a text-only one as it is; one with images as
+    content parts, its text first, then each PNG as a base64 data URL."""
+    images = images_of(message)
+    wire: dict[str, Any] = {k: v for k, v in message.items() if k != "images"}
+    if images:
+        text = [{"type": "text", "text": message["content"]}] if message["content"] else []
+        wire["content"] = text + [
+            {"type": "image_url",
+             "image_url": {"url": "data:image/png;base64," + base64.b64encode(png).decode("ascii")}}
+            for png in images]
+    return wire
 
 
 class OpenAIProvider(Provider):
@@ -31,9 +46,13 @@ class OpenAIProvider(Provider):
 
     ``timeout`` [s] per request: the argument, else ``REGEN_LLM_TIMEOUT``, else 120; a request
     that times out is tried ``attempts`` times in all.
+
+    Images (``Message["images"]``) go as ``image_url`` content parts; the model behind the
+    URL must be able to read them (a text-only server refuses the request).
     """
 
     name = "openai"
+    accepts_images = True
 
     def __init__(self, model: str, *, base_url: str | None = None, api_key: str | None = None,
                  timeout: float | None = None, attempts: int = 4, schema_mode: str = "json_schema",
@@ -59,7 +78,8 @@ class OpenAIProvider(Provider):
 
     def _body(self, messages: list[Message], schema: dict[str, Any] | None,
               sampling: Sampling) -> dict[str, Any]:
-        body: dict[str, Any] = {"model": self.model, "messages": messages,
+        wire = [wire_message(m) for m in messages]
+        body: dict[str, Any] = {"model": self.model, "messages": wire,
                                 "temperature": sampling.temperature,
                                 "max_tokens": sampling.max_tokens, "seed": sampling.seed}
         if sampling.top_p is not None:
@@ -72,13 +92,14 @@ class OpenAIProvider(Provider):
                 import json
 
                 hint = "Answer with one JSON object following this JSON schema:\n" + json.dumps(schema)
-                body["messages"] = [{"role": "system", "content": hint}, *messages]
+                body["messages"] = [{"role": "system", "content": hint}, *wire]
                 if self.schema_mode == "json_object":
                     body["response_format"] = {"type": "json_object"}
         return body
 
     def complete(self, messages: list[Message], *, schema: dict[str, Any] | None,
                  sampling: Sampling) -> Completion:
+        self.check_images(messages)
         url = f"{self.base_url}/chat/completions"
         headers = {"Authorization": f"Bearer {self._key.value}"} if self._key.value else {}
         body = self._body(messages, schema, sampling)
