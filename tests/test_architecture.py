@@ -71,7 +71,7 @@ def test_driving_holds_only_its_stages() -> None:
         assert doc.startswith('"""') and "Imports" in doc, stage
 
 
-MANIPULATION_STAGES = {"world", "grounding", "simulation", "verify", "render", "testing", "gym"}
+MANIPULATION_STAGES = {"world", "grounding", "simulation", "verify", "render", "export", "testing", "gym"}
 
 
 def test_manipulation_holds_only_its_stages() -> None:

@@ -375,90 +375,13 @@ def _print_generated(result, out_dir) -> None:
     print_outcomes(console, result.outcomes, out_dir)
 
 
-@runs_app.command("list", **help_for("runs list"))
-@friendly
-def runs_list(root: str = typer.Argument(".", metavar="FOLDER", help="A run folder or a folder of runs")) -> None:
-    """Run folders with their behavior, status and success."""
-    from pathlib import Path
-
-    from regen.errors import RunError
-    from regen.evaluation.runs import causal_counts
-    from regen.runfolder import RunFolder, list_runs, read_json
-
-    base = Path(root)
-    if not base.is_dir():
-        raise RunError(f"{root} is not a folder: give a run folder or a folder of runs")
-    table = Table(title=shown(f"runs under {root}"))
-    for col in ("folder", "behavior", "domain", "status", "feasible", "caused", "started"):
-        table.add_column(col, overflow="fold")  # wrapped, never cut: a cut path names no run
-    for path, m, problem in list_runs(base):
-        name = shown(path if path == base else path.relative_to(base))  # the title names the root
-        if m is None:
-            table.add_row(name, f"[yellow]run.json {shown(problem)}[/]", "", "?", "?", "", "")
-            continue
-        got = read_json(path / RunFolder.SUMMARY)
-        if got.ok and isinstance(got.value, dict):
-            feasible = shown(f"{got.value.get('feasible', '?')}/{got.value.get('scenarios', '?')}")
-        elif got.problem == "missing":  # not finished yet
-            feasible = "?"
-        else:
-            feasible = "[yellow]summary.json unreadable[/]"
-        causal = causal_counts(path)  # scenarios whose cause causes the behavior / those checked
-        caused = f"{causal.get('caused', 0)}/{sum(causal.values())}" if causal else "—"
-        table.add_row(name, shown(m.behavior.text), shown(m.behavior.domain),
-                      shown(m.status), feasible, caused, shown(m.started))
-    console.print(table)
-
-
-@runs_app.command("show", **help_for("runs show"))
-@friendly
-def runs_show(run: str = typer.Argument(..., metavar="RUN_DIR", help="A run folder made by regen generate")) -> None:
-    """The scenarios of one run with their verdicts."""
-    from pathlib import Path
-
-    from regen.core.verdict import Verdict
-    from regen.errors import RunError
-    from regen.report.load import causal_text
-    from regen.runfolder import RunFolder, read_model
-
-    folder = RunFolder(Path(run))
-    if not folder.is_run():
-        raise RunError(f"{run} is not a run folder (no run.json): give the --out folder of "
-                       f"'regen generate'; 'regen runs list {run}' lists the runs under a folder")
-    m = folder.read_manifest()
-    console.print(f"[bold]{shown(m.behavior.text)}[/] ({shown(m.behavior.domain)}), status "
-                  f"{shown(m.status)}, started {shown(m.started)}")
-    table = Table()
-    for col in ("scenario", "verdict", "causal", "reason"):
-        table.add_column(col)
-    caused = checked = 0
-    for name in folder.scenario_names():
-        got = read_model(folder.scenario(name) / "verdict.json", Verdict)
-        if got.ok:
-            v = got.value
-            status, reason, c = shown(v.status), shown(v.reason), v.causal  # causal: beside the status
-            mark = "[dim]not checked[/]"
-            if c is not None:
-                checked, caused = checked + 1, caused + (c.status == "caused")
-                colour = {"caused": "green", "not_checked": "dim"}.get(c.status, "yellow")
-                mark = f"[{colour}]{shown(causal_text(c))}[/]"
-                reason += f"\ncause: {shown(c.reason)}" if c.status != "caused" and c.reason else ""
-            table.add_row(shown(name), f"[green]{status}[/]" if v.feasible else f"[red]{status}[/]",
-                          mark, reason)
-        elif got.problem == "missing":
-            table.add_row(shown(name), "[yellow]not finished[/]", "", "")
-        else:
-            table.add_row(shown(name), "[yellow]verdict unreadable[/]", "", shown(got.problem))
-    console.print(table)
-    if checked:
-        console.print(f"caused: {caused}/{checked} scenarios checked with a reference robot with and "
-                      "without their cause")
-
-
 def _mount_commands() -> None:
     """The commands that other packages define, in the order --help lists them."""
     from regen.augment.cli import augment_command
+    from regen.dataset.cli import dataset_command
+    from regen.dataset.probe_cli import probe_command
     from regen.evaluation.cli import eval_command
+    from regen.evaluation.runs_cli import runs_list, runs_show
     from regen.harness.cli import test_command
     from regen.llm.cli import model_prepare, model_status, model_verify
     from regen.pipeline.import_cli import import_command
@@ -478,6 +401,10 @@ def _mount_commands() -> None:
     app.command("import", help="Import a scenario file (OpenSCENARIO .xosc for driving): its storyboard "
                                "becomes a scenario with an FSM, simulated and verified.",
                 **help_for("import"))(friendly(import_command))
+    app.command("dataset", **help_for("dataset"))(friendly(dataset_command))
+    app.command("probe", **help_for("probe"))(friendly(probe_command))
+    runs_app.command("list", **help_for("runs list"))(friendly(runs_list))
+    runs_app.command("show", **help_for("runs show"))(friendly(runs_show))
     model_app.command("status", **help_for("model status"))(friendly(model_status))
     model_app.command("prepare", **help_for("model prepare"))(friendly(model_prepare))
     model_app.command("verify", **help_for("model verify"))(friendly(model_verify))

@@ -12,7 +12,7 @@ runs every registered domain through the whole pipeline the way Gymnasium's ``ch
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from regen.assets.database import AssetDatabase
     from regen.core.behavior import Behavior
     from regen.core.graph import CausePath
-    from regen.core.scenario import Scenario
+    from regen.core.scenario import AbstractState, Scenario
     from regen.core.trace import Trace
     from regen.core.verdict import Verdict
     from regen.harness.contract import PolicyHarness
@@ -216,6 +216,34 @@ class Recorder(ABC):
         wrong with the file."""
 
 
+class DatasetViews(ABC):
+    """What ``regen dataset`` needs of a domain (:meth:`DomainBackend.dataset_views`): the robot's
+    reaction states, the pictures of a frame and a new simulation of a test variant."""
+
+    @abstractmethod
+    def reaction(self, scenario: Scenario) -> tuple[Callable[[AbstractState], bool],
+                                                     tuple[AbstractState, list[AbstractState]]] | None:
+        """For a scenario whose robot follows a known template: whether a state of the robot is a
+        reaction, and the template's (first state, reaction states). None: no template known (the
+        dataset reads the scenario's own states)."""
+
+    @abstractmethod
+    def camera_note(self) -> str:
+        """Why there are no camera pictures on this machine; '' when there are."""
+
+    @abstractmethod
+    def pictures(self, scenario: Scenario, trace: Trace, verdict: Verdict, steps: list[int], *,
+                 map_path: Path | None, camera: tuple[int, int] | None) -> dict[str, Any]:
+        """PIL images per frame: ``bev_<k>`` (the bird's-eye view, nothing that names the answer)
+        and, with ``camera`` (its size [px]), ``camera_<k>`` (the robot's forward view), k indexing
+        ``steps``."""
+
+    @abstractmethod
+    def resimulate(self, scenario: Scenario) -> tuple[Trace | None, Verdict | None, Scenario, str]:
+        """A test variant simulated again with the template robot: (trace, verdict, the scenario
+        as judged, '' or the error)."""
+
+
 class DomainBackend(ABC):
     """What a simulation domain provides to the pipeline.
 
@@ -293,6 +321,11 @@ class DomainBackend(ABC):
         (:class:`Importer`); None: the domain imports none."""
         return None
 
+    def dataset_views(self) -> DatasetViews | None:
+        """What ``regen dataset`` draws and reads for this domain (:class:`DatasetViews`); None:
+        the domain gives no vision-language-action samples."""
+        return None
+
     @abstractmethod
     def ground(self, path: CausePath, llm: LLM | None, *, seed: int = 0) -> Scenario:
         """Turn a cause path into a scenario with an FSM and solved parameters.
@@ -349,5 +382,5 @@ class DomainBackend(ABC):
                 "fsm": scenario.fsm.as_tuples()}
 
 
-__all__ = ["ANIMATION", "KEYFRAMES", "ROBOT_ORDERS", "Allowed", "DomainBackend", "Importer", "PropertyChoices",
+__all__ = ["ANIMATION", "KEYFRAMES", "ROBOT_ORDERS", "Allowed", "DatasetViews", "DomainBackend", "Importer", "PropertyChoices",
            "RecordedBehavior", "Recorder", "ReportHints", "SimulationOutput", "Wording"]

@@ -57,7 +57,7 @@ class PlainProgress(_Sink):
             return
         if kind == "paths":
             self.total = int(ev.get("total") or 0)
-            self._say(f"{self.total} scenario(s) to ground and simulate")
+            self._say(f"{self.total} {ev.get('what') or 'scenario(s) to ground and simulate'}")
             return
         if kind == "scenario_done":
             self.done += 1
@@ -69,7 +69,7 @@ class PlainProgress(_Sink):
             self.calls += 1
             self.cached += bool(ev.get("cached"))
             self.tokens += int(ev.get("tokens", 0))
-        elif kind in ("grounding", "simulating", "redrawing"):
+        elif kind in ("grounding", "simulating", "redrawing", "drawing"):
             self.current = f"{kind} {ev.get('name')}"
         if self.clock() - self.last >= self.every:
             self._say(f"... {self.stage}{': ' + self.current if self.current else ''}; model: {self.calls} calls, "
@@ -90,6 +90,7 @@ class RichProgress(_Sink):
         self.cached = 0
         self.tokens = 0
         self.current = ""
+        self.kept = "feasible"  # what a done scenario that counts is (a 'paths' event's 'kept')
         self.scenario_started: float | None = None
         self.durations: list[float] = []
         self.live = Live(self._render(), console=console, refresh_per_second=4, transient=False)
@@ -104,7 +105,7 @@ class RichProgress(_Sink):
             eta = "0 s"
         t = Table.grid(padding=(0, 2))
         t.add_row("[bold]stage[/]", self.stage + (f" ({self.current})" if self.current else ""))
-        t.add_row("[bold]scenarios[/]", f"{self.done}/{self.total or '?'} done, {self.feasible} feasible")
+        t.add_row("[bold]scenarios[/]", f"{self.done}/{self.total or '?'} done, {self.feasible} {self.kept}")
         t.add_row("[bold]model[/]", f"{self.calls} calls, {self.cached} cached, {self.tokens} tokens")
         t.add_row("[bold]time[/]", f"{elapsed:.0f} s elapsed, ETA {eta}")
         return t
@@ -120,7 +121,8 @@ class RichProgress(_Sink):
             self.tokens += int(ev.get("tokens", 0))
         elif kind == "paths":
             self.total = ev["total"]
-        elif kind in ("grounding", "simulating"):
+            self.kept = ev.get("kept") or self.kept
+        elif kind in ("grounding", "simulating", "drawing"):
             self.current = ev["name"]
             self.scenario_started = time.perf_counter()
         elif kind == "scenario_done":

@@ -36,6 +36,7 @@ from regen.driving.world.setting import DrivingParams
 from regen.errors import ConfigError, GroundingError
 
 if TYPE_CHECKING:
+    from regen.driving.render.dataset import DrivingDatasetViews
     from regen.llm.client import LLM
 
 log = logging.getLogger(__name__)
@@ -304,6 +305,12 @@ class DrivingBackend(DomainBackend):
         if notes:
             scenario = scenario.model_copy(update={"fallbacks": [*notes, *scenario.fallbacks]})
         return scenario
+
+    def dataset_views(self) -> DrivingDatasetViews:
+        """Reaction states, bird's-eye and camera frames, variants simulated again (``regen dataset``)."""
+        from regen.driving.render.dataset import DrivingDatasetViews
+
+        return DrivingDatasetViews()
 
     def importer(self) -> XoscImporter:
         """OpenSCENARIO files (``regen import``)."""

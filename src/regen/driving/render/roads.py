@@ -24,7 +24,8 @@ from regen.errors import DependencyNotInstalled, RegenError
 
 log = logging.getLogger(__name__)
 
-__all__ = ["MapLayers", "View", "background", "map_artists", "map_layers"]
+__all__ = ["MapLayers", "View", "background", "map_artists", "map_layers", "polygons",
+           "read_map_layers"]
 
 FRAME_W, FRAME_H = 640, 480  # output frame [px]
 CAPTION_H = media.CAPTION_H  # caption band below the map [px]
@@ -136,6 +137,12 @@ def map_layers(scenario: Scenario, trace: Trace) -> MapLayers | None:
     path = _map_path(scenario, trace)
     if path is None:
         return None
+    return read_map_layers(path)
+
+
+def read_map_layers(path: Path) -> MapLayers | None:
+    """The road network of the OpenDRIVE file ``path`` (cached per file and modification time),
+    or None, with a warning, when it cannot be read."""
     try:
         return _load_layers(str(path.resolve()), path.stat().st_mtime)
     except DependencyNotInstalled:
@@ -177,7 +184,8 @@ def _poly_path(poly):
                                         for r in rings])
 
 
-def _polygons(geom) -> list:
+def polygons(geom) -> list:
+    """The polygons of a shapely area: its parts when it has several, none when it is empty."""
     if geom is None or geom.is_empty:
         return []
     return list(geom.geoms) if hasattr(geom, "geoms") else [geom]
@@ -220,7 +228,7 @@ def map_artists(layers: MapLayers, view: View, transform) -> list:
                          (layers.roads, ROAD), (layers.intersections, JUNCTION),
                          (layers.crossings, CROSSING)):
         for geom in group:
-            for poly in _polygons(geom):
+            for poly in polygons(geom):
                 out.append(PathPatch(_poly_path(poly), facecolor=_rgb01(color), edgecolor=_rgb01(color),
                                      linewidth=0.5, transform=transform))
     pt_per_m = view.scale * 72.0 / DPI  # line widths and dashes are in points

@@ -210,7 +210,23 @@ def project(point: tuple[float, float, float], view: list[float], proj: list[flo
     return int((ndc[0] + 1) / 2 * WIDTH), int((1 - ndc[1]) / 2 * VIEW_H)
 
 
-def _pose_at(scene: Scene, trace: Trace, i: int, offsets: dict[str, np.ndarray]) -> None:
+def body_offsets(scene: Scene) -> dict[str, np.ndarray]:
+    """Base position minus AABB centre [m] of each body that moves (objects, dynamic furniture):
+    the trace records centres, PyBullet places bases."""
+    p, c = scene.p, scene.client
+    offsets: dict[str, np.ndarray] = {}
+    for name, b in scene.bodies.items():
+        if b.kind == "object" or (b.spec is not None and b.spec.dynamic):
+            pos, _ = p.getBasePositionAndOrientation(b.id, physicsClientId=c)
+            box = scene.aabb(name, -1 if b.kind == "furniture" else None)
+            centre = (np.asarray(box.lo) + np.asarray(box.hi)) / 2
+            offsets[name] = np.asarray(pos) - centre
+    return offsets
+
+
+def pose_at(scene: Scene, trace: Trace, i: int, offsets: dict[str, np.ndarray]) -> None:
+    """Put the scene's bodies where the trace has them at sample ``i`` (robot joints, furniture
+    joints, moving bodies by :func:`body_offsets`)."""
     p, c = scene.p, scene.client
     for name, track in trace.actors.items():
         if name not in scene.bodies:
@@ -310,7 +326,7 @@ def _shot(scene: Scene, view, proj) -> Image.Image:
     return shot if (rw, rh) == (WIDTH, VIEW_H) else shot.resize((WIDTH, VIEW_H), Image.Resampling.BICUBIC)
 
 
-def _light_lamps(scene: Scene, trace: Trace, i: int) -> None:
+def light_lamps(scene: Scene, trace: Trace, i: int) -> None:
     """Lamps yellow while a ``power`` state is on at step ``i``, dark grey otherwise."""
     on = any(seq[i] == "on" for a in trace.actors.values() if (seq := a.states.get("power")) and len(seq) > i)
     for b in scene.bodies.values():
@@ -329,21 +345,14 @@ def render_frames(scenario: Scenario, trace: Trace, indices: Sequence[int],
     causes = _causes(scenario)
     frames: list[Image.Image] = []
     with Scene(layout) as scene:
-        p, c = scene.p, scene.client
-        offsets: dict[str, np.ndarray] = {}
-        for name, b in scene.bodies.items():
-            if b.kind == "object" or (b.spec is not None and b.spec.dynamic):
-                pos, _ = p.getBasePositionAndOrientation(b.id, physicsClientId=c)
-                box = scene.aabb(name, -1 if b.kind == "furniture" else None)
-                centre = (np.asarray(box.lo) + np.asarray(box.hi)) / 2
-                offsets[name] = np.asarray(pos) - centre
+        offsets = body_offsets(scene)
         if indices:  # framed where the run puts the bodies (a test's variant moves them)
-            _pose_at(scene, trace, indices[0], offsets)
+            pose_at(scene, trace, indices[0], offsets)
         view, proj = scene_camera(scene)
         for i in indices:
-            _pose_at(scene, trace, i, offsets)
+            pose_at(scene, trace, i, offsets)
             if lamp:
-                _light_lamps(scene, trace, i)
+                light_lamps(scene, trace, i)
             img = Image.new("RGB", (WIDTH, HEIGHT), media.CAPTION_BG)
             img.paste(_shot(scene, view, proj))
             _labels(img, scenario, trace, i, set(scene.bodies), causes, view, proj)
@@ -421,5 +430,6 @@ def render_failure(scenario: Scenario, trace: Trace, out: Path, *,
 
 
 __all__ = ["ANIMATION_FILE", "CAMERA", "GIF_FRAMES", "GIF_FRAME_MS", "HEIGHT", "KEYFRAMES_FILE", "VIEW_H",
-           "WIDTH", "along_wall", "camera", "free_row", "gif_steps", "project", "render_failure",
-           "render_frames", "render_run", "scene_camera", "stage_bar"]
+           "WIDTH", "along_wall", "body_offsets", "camera", "free_row", "gif_steps", "light_lamps",
+           "pose_at", "project", "render_failure", "render_frames", "render_run", "scene_camera",
+           "stage_bar"]

@@ -42,6 +42,9 @@ class Arm:
         self.target = np.array(scene.ee_position())
         self._fingers = 0.04
         self.steps = 0
+        # the joint targets of the last update (7 arm [rad], 2 fingers [m]): the action a
+        # recorded trace keeps (regen.manipulation.simulation.record)
+        self.command: list[float] = [*PANDA_HOME, 0.04, 0.04]
         n = 9
         lower = [-2.9, -1.76, -2.9, -3.07, -2.9, -0.017, -2.9, 0.0, 0.0]
         upper = [2.9, 1.76, 2.9, -0.07, 2.9, 3.75, 2.9, 0.04, 0.04]
@@ -61,6 +64,7 @@ class Arm:
         p.setJointMotorControlArray(s.robot, list(ARM_JOINTS), p.POSITION_CONTROL,
                                     targetPositions=list(q[:7]), forces=[ARM_FORCE] * 7,
                                     physicsClientId=s.client)
+        self.command = [*(float(v) for v in q[:7]), self._fingers, self._fingers]
         p.setJointMotorControlArray(s.robot, list(FINGER_JOINTS), p.POSITION_CONTROL,
                                     targetPositions=[self._fingers] * 2, forces=[20.0] * 2,
                                     physicsClientId=s.client)

@@ -1,8 +1,10 @@
 """Record a running manipulation scene into a :class:`Trace`.
 
 Trace contents, recorded at ``RECORD_HZ``: every body's AABB centre (x, y, z) and extents; the
-robot's end effector (``ee_x/y/z``), what it holds (``holding``) and its joint angles
-(``q0``..``q8``, for replay); furniture ``joint_fraction``, ``joint_position``, handle point
+robot's end effector (``ee_x/y/z``), what it holds (``holding``), its joint angles (``q0``..``q8``,
+for replay) and, when ``Recorder.command`` is kept up to date (the rollout does), the joint targets
+the controller last commanded (``cmd_q0``..``cmd_q8``: 7 arm [rad], 2 fingers [m]; optional, traces
+recorded before them lack them); furniture ``joint_fraction``, ``joint_position``, handle point
 (``handle_x/y/z``), interior (``cavity_lo_x`` .. ``cavity_hi_z``), ``top`` height and the
 meaning of the joint when it has one (``power``/``water`` on/off). With ``Recorder.watch`` set
 (policy tests) also the robot's ``contacts`` (the watched bodies any robot link touched since
@@ -39,6 +41,8 @@ class Recorder:
     # lasting less than a sample period (1/24 s) must not slip through
     watch: tuple[str, ...] = ()
     touched: set[str] = field(default_factory=set)
+    # the controller's last joint targets, set by whoever drives the robot (None: not recorded)
+    command: list[float] | None = None
 
     def __call__(self) -> None:
         self.steps += 1
@@ -67,6 +71,9 @@ class Recorder:
                 self._put(name, "holding", self.holding or "")
                 for i, q in enumerate(s.arm_state()):
                     self._put(name, f"q{i}", round(q, 4))
+                if self.command is not None:
+                    for i, q in enumerate(self.command):
+                        self._put(name, f"cmd_q{i}", round(float(q), 4))
                 if self.watch:
                     self._put(name, "contacts", ",".join(sorted(self.touched)))
                     self.touched.clear()

@@ -104,6 +104,7 @@ def rollout(scenario: Scenario, *, policy: object | None = None,
 
         def on_step() -> None:
             rec.holding = ctl.holding
+            rec.command = ctl.command
             orig()
 
         ctl.on_step = on_step
@@ -120,6 +121,7 @@ def rollout(scenario: Scenario, *, policy: object | None = None,
         except Exception as exc:  # pybullet raises bare errors; report them as ours
             raise SimulationError(f"PyBullet failed during the rollout: {exc}") from exc
         rec.holding = ctl.holding
+        rec.command = ctl.command
         rec.sample()
         trace = rec.trace(scenario)
         t2 = time.perf_counter()

@@ -1,0 +1,54 @@
+"""``regen dataset RUN_DIR... --out DIR``: a vision-language-action dataset from finished run
+folders (a thin layer over :func:`regen.dataset.build_dataset`). Mounted by :mod:`regen.cli`."""
+
+from __future__ import annotations
+
+import typer
+from rich.console import Console
+
+from regen.errors import ConfigError
+from regen.pipeline.terminal import shown
+
+console = Console(highlight=False, soft_wrap=True)
+err_console = Console(stderr=True, soft_wrap=True)
+
+
+def dataset_command(
+    runs: list[str] = typer.Argument(..., metavar="RUN_DIR", help="Finished driving run folders (the --out "
+                                     "of regen generate, or the run folders inside a regen batch folder)"),
+    out: str = typer.Option(..., "--out", "-o", metavar="<folder>", help="The dataset folder: samples.parquet, "
+                            "qa.parquet, images/ and README.md (replaced when it holds an earlier dataset)"),
+    fmt: list[str] = typer.Option(["parquet"], "--format", metavar="parquet|llava", help="parquet: the "
+                                  "tables (always written); llava: also llava.json, LLaVA-style conversations "
+                                  "(repeatable)"),
+    variants: bool = typer.Option(True, "--variants/--no-variants", help="Also simulate the test variants "
+                                  "regen test recorded in the runs (about a second each)"),
+    log: str = typer.Option("rich", "--log", help="Progress on stderr: rich, quiet, or jsonl (the events on "
+                            "stdout)"),
+) -> None:
+    """A vision-language-action dataset from run folders: three frames at the ego's decision
+    moment, the privileged state, the desired action, its explanation and computed QA layers."""
+    from regen.dataset.samples import run_folder
+    from regen.dataset.write import build_dataset
+    from regen.progress import make_progress
+    from regen.promises.folders import out_folder
+
+    out_dir = out_folder(out)
+    if log not in ("rich", "quiet", "jsonl"):
+        raise ConfigError(f"--log must be rich, quiet or jsonl, not {log!r}")
+    for run in runs:  # a folder that is not a run is told before any progress line
+        run_folder(run)
+    with make_progress(log, console=err_console, out=console) as progress:
+        result = build_dataset(runs, out_dir, formats=tuple(dict.fromkeys(fmt)), variants=variants,
+                               on_event=progress.on_event)
+    if log == "jsonl":
+        return
+    console.print(f"{result.samples} samples, {result.qa} question-answer pairs, "
+                  f"{len(result.skipped)} left out" + (": " + ", ".join(
+                      f"{n} {shown(k)}" for k, n in sorted(result.left_out.items())) if result.skipped else ""))
+    if result.camera_note:
+        console.print(f"no camera pictures: {shown(result.camera_note)}")
+    console.print(f"dataset: {shown(str(out_dir))} ({', '.join(result.files)})")
+
+
+__all__ = ["dataset_command"]

@@ -1,0 +1,161 @@
+"""Verified manipulation scenarios as a LeRobot v3 dataset: the layout, the columns, one episode
+per verified scenario, byte-identical rewrites; and LeRobotDataset reads it (when installed)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import sys
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("pybullet")
+pa = pytest.importorskip("pyarrow", reason="the 'dataset' extra is not installed")
+import pyarrow.parquet as pq  # noqa: E402
+
+from regen.errors import ConfigError  # noqa: E402
+from regen.manipulation.export import write_lerobot  # noqa: E402
+
+pytestmark = pytest.mark.slow
+
+CASSETTE = Path(__file__).resolve().parents[1] / "data" / "cassettes" / "generate_manipulation_door.json"
+FILES = ["data/chunk-000/file-000.parquet", "meta/episodes/chunk-000/file-000.parquet", "meta/info.json",
+         "meta/stats.json", "meta/tasks.parquet"]
+
+
+@pytest.fixture(scope="module")
+def door_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A two-scenario 'open the door' run, replayed from its cassette (no model call)."""
+    from typer.testing import CliRunner
+
+    from regen.cli import app
+    from regen.llm.cache import CallCache
+
+    run = tmp_path_factory.mktemp("runs") / "door"
+    run.mkdir()
+    CallCache(run / "llm-cache.sqlite").import_json(CASSETTE)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("REGEN_CACHE_DIR", str(tmp_path_factory.mktemp("cache")))
+        res = CliRunner().invoke(app, ["generate", "the robot opens the door", "-d", "manipulation", "--out",
+                                       str(run), "--replay", "-n", "2", "--depth", "1", "--causes", "3",
+                                       "--no-pictures"])
+    assert res.exit_code == 0, res.output
+    return run
+
+
+@pytest.fixture(scope="module")
+def dataset(door_run: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict]:
+    out = tmp_path_factory.mktemp("datasets") / "door"
+    return out, write_lerobot([door_run], out)
+
+
+def _traces(run: Path) -> list[dict]:
+    return [json.loads(p.read_text()) for p in sorted(run.glob("scenarios/*/trace.json"))]
+
+
+def test_the_layout_and_info(dataset) -> None:
+    out, summary = dataset
+    assert sorted(str(p.relative_to(out)) for p in out.rglob("*") if p.is_file()) == sorted(FILES)
+    info = json.loads((out / "meta" / "info.json").read_text())
+    assert info["codebase_version"] == "v3.0" and info["fps"] == 12 and info["robot_type"] == "franka_panda"
+    assert info["data_path"] == "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
+    assert info["video_path"] is None  # pictures are PNGs inside the parquet rows
+    assert info["total_episodes"] == summary["episodes"] == 2 and info["total_tasks"] == 2
+    assert info["chunks_size"] == 1000 and info["splits"] == {"train": "0:2"}
+    f = info["features"]
+    assert f["observation.state"] == {"dtype": "float32", "shape": [9], "names": f["action"]["names"]}
+    assert f["observation.state"]["names"][0] == "panda_joint1"
+    assert f["observation.environment_state"]["shape"] == [13]
+    for cam in ("scene", "wrist"):
+        assert f[f"observation.images.{cam}"] == {"dtype": "image", "shape": [128, 128, 3],
+                                                   "names": ["height", "width", "channels"]}
+    for key in ("timestamp", "frame_index", "episode_index", "index", "task_index", "next.reward", "next.done"):
+        assert f[key]["shape"] == [1], key
+    stats = json.loads((out / "meta" / "stats.json").read_text())
+    assert set(stats) == set(f) and len(stats["action"]["mean"]) == 9
+    scene = stats["observation.images.scene"]  # per channel, shaped (3, 1, 1), in [0, 1]
+    assert [len(c) for c in scene["mean"]] == [1, 1, 1] and all(0 < c[0][0] < 1 for c in scene["mean"])
+    assert summary["action"].startswith("commanded joint targets") and summary["reward"] is True
+
+
+def test_the_columns_agree_with_the_traces(dataset, door_run) -> None:
+    out, _ = dataset
+    info = json.loads((out / "meta" / "info.json").read_text())
+    data = pq.read_table(out / "data" / "chunk-000" / "file-000.parquet")
+    assert data.column_names == list(info["features"])
+    traces = _traces(door_run)
+    lengths = [(len(t["times"]) + 1) // 2 for t in traces]  # 24 Hz trace samples at 12 fps
+    assert data.num_rows == info["total_frames"] == sum(lengths)
+    assert pq.read_metadata(out / "data" / "chunk-000" / "file-000.parquet").num_row_groups == 2
+    cols = data.to_pydict()
+    assert cols["index"] == list(range(data.num_rows))
+    assert cols["episode_index"] == [0] * lengths[0] + [1] * lengths[1]
+    assert cols["frame_index"][:lengths[0]] == list(range(lengths[0]))
+    assert cols["timestamp"][:3] == pytest.approx([0.0, 1 / 12, 2 / 12])
+    assert cols["next.done"].count(True) == 2 and cols["next.done"][lengths[0] - 1]
+    robot = traces[0]["actors"]["robot"]["states"]
+    assert cols["observation.state"][1] == pytest.approx([robot[f"q{k}"][2] for k in range(9)], abs=1e-6)
+    assert cols["action"][1] == pytest.approx([robot[f"cmd_q{k}"][4] for k in range(9)], abs=1e-6)
+    png = cols["observation.images.wrist"][0]["bytes"]
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    eps = pq.read_table(out / "meta" / "episodes" / "chunk-000" / "file-000.parquet").to_pydict()
+    assert eps["length"] == lengths and eps["dataset_from_index"] == [0, lengths[0]]
+    assert eps["dataset_to_index"] == [lengths[0], sum(lengths)] and eps["data/file_index"] == [0, 0]
+    tasks = pq.read_table(out / "meta" / "tasks.parquet").to_pydict()
+    assert tasks["task_index"] == [0, 1]
+    assert all(t.startswith("the robot opens the door \u2014 context: ") for t in tasks["task"])
+    assert eps["tasks"] == [[t] for t in tasks["task"]]
+
+
+def test_two_writes_are_byte_identical(dataset, door_run, tmp_path: Path) -> None:
+    out, _ = dataset
+    again = tmp_path / "again"
+    write_lerobot([door_run], again)
+    for name in FILES:
+        assert (out / name).read_bytes() == (again / name).read_bytes(), name
+
+
+def test_a_scenario_that_did_not_verify_is_left_out(door_run, tmp_path: Path) -> None:
+    run = tmp_path / "door"
+    shutil.copytree(door_run, run)
+    first, second = sorted(run.glob("scenarios/*/"))
+    verdict = json.loads((second / "verdict.json").read_text())
+    verdict.update(feasible=False, status="fsm_incomplete")
+    (second / "verdict.json").write_text(json.dumps(verdict))
+    trace = json.loads((first / "trace.json").read_text())  # a trace recorded before cmd_q* were kept
+    for k in range(9):
+        del trace["actors"]["robot"]["states"][f"cmd_q{k}"]
+    (first / "trace.json").write_text(json.dumps(trace))
+    summary = write_lerobot([run], tmp_path / "ds")
+    assert summary["episodes"] == 1 and summary["skipped"] == [f"door/{second.name}"]
+    assert summary["action"].startswith("the next frame's joint positions")
+    cols = pq.read_table(tmp_path / "ds" / "data" / "chunk-000" / "file-000.parquet").to_pydict()
+    assert set(cols["episode_index"]) == {0}
+    assert cols["action"][0] == pytest.approx(cols["observation.state"][1])
+
+
+def test_a_folder_that_is_not_a_dataset_is_not_replaced(door_run, tmp_path: Path) -> None:
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "notes.txt").write_text("keep")
+    with pytest.raises(ConfigError, match="is not a LeRobot dataset"):
+        write_lerobot([door_run], tmp_path / "mine")
+    assert (tmp_path / "mine" / "notes.txt").read_text() == "keep"
+
+
+def test_lerobot_dataset_reads_it(dataset, monkeypatch: pytest.MonkeyPatch) -> None:
+    if sys.version_info < (3, 12):
+        pytest.skip("lerobot 0.6.1 needs Python >= 3.12 (its sources use PEP 695 syntax)")
+    pytest.importorskip("lerobot", reason="the 'lerobot' extra is not installed")
+    monkeypatch.setenv("HF_HUB_OFFLINE", "1")  # a local root: nothing is fetched from the Hub
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    out, summary = dataset
+    ds = LeRobotDataset(repo_id="regen/open-door", root=out)
+    assert len(ds) == summary["frames"] and ds.num_episodes == 2 and ds.fps == 12
+    item = ds[0]
+    assert tuple(item["observation.state"].shape) == (9,) and tuple(item["action"].shape) == (9,)
+    assert tuple(item["observation.environment_state"].shape) == (13,)
+    assert tuple(item["observation.images.scene"].shape) == (3, 128, 128)
+    assert tuple(item["observation.images.wrist"].shape) == (3, 128, 128)
+    assert item["task"] == summary["tasks"][0]
