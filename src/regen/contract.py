@@ -321,6 +321,14 @@ class DomainBackend(ABC):
         (:class:`Importer`); None: the domain imports none."""
         return None
 
+    def write_episodes(self, run_dirs: list[Path], out: Path) -> dict[str, Any]:
+        """Write the verified scenarios of ``run_dirs`` (this domain's runs) as robot-learning
+        episodes at ``out`` (``regen dataset --format lerobot``); what was written. Default:
+        ConfigError, the domain writes none."""
+        from regen.errors import ConfigError
+
+        raise ConfigError(f"the {self.name} domain writes no robot-learning episodes (--format lerobot)")
+
     def dataset_views(self) -> DatasetViews | None:
         """What ``regen dataset`` draws and reads for this domain (:class:`DatasetViews`); None:
         the domain gives no vision-language-action samples."""

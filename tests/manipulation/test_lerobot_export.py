@@ -159,3 +159,24 @@ def test_lerobot_dataset_reads_it(dataset, monkeypatch: pytest.MonkeyPatch) -> N
     assert tuple(item["observation.images.scene"].shape) == (3, 128, 128)
     assert tuple(item["observation.images.wrist"].shape) == (3, 128, 128)
     assert item["task"] == summary["tasks"][0]
+
+
+def test_regen_dataset_format_lerobot_writes_the_same_episodes(door_run: Path, dataset, tmp_path: Path) -> None:
+    """The command users run (``regen dataset RUN --format lerobot``) writes what write_lerobot
+    writes; a manipulation run without --format lerobot, or lerobot beside another format, is
+    refused with what to pass (exit 2)."""
+    from typer.testing import CliRunner
+
+    from regen.cli import app
+
+    out, _ = dataset
+    res = CliRunner().invoke(app, ["dataset", str(door_run), "--out", str(tmp_path / "ds"), "--format", "lerobot"])
+    assert res.exit_code == 0, res.output
+    assert "LeRobot v3 dataset" in res.output
+    for f in FILES:
+        assert (tmp_path / "ds" / f).read_bytes() == (out / f).read_bytes(), f
+    res = CliRunner().invoke(app, ["dataset", str(door_run), "--out", str(tmp_path / "vla")])
+    assert res.exit_code == 2 and "--format lerobot" in res.output, res.output
+    res = CliRunner().invoke(app, ["dataset", str(door_run), "--out", str(tmp_path / "x"), "--format", "lerobot",
+                                   "--format", "llava"])
+    assert res.exit_code == 2 and "written alone" in res.output, res.output

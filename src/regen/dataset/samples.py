@@ -70,15 +70,18 @@ class Skipped:
     detail: str
 
 
-def run_folder(path: str | Path) -> RunFolder:
-    """A readable driving run folder; RunError (exit 2) saying what to pass otherwise."""
+def run_folder(path: str | Path, domain: str = DOMAIN) -> RunFolder:
+    """A readable run folder of ``domain``; RunError (exit 2) saying what to pass otherwise."""
     folder = RunFolder(Path(path))
     if not folder.path.is_dir() or not folder.is_run():
         raise RunError(NOT_A_RUN.format(path=path))
     m = folder.read_manifest()
-    if m.behavior.domain != DOMAIN:
-        raise RunError(f"{path} is a {m.behavior.domain} run; regen dataset builds driving datasets only "
-                       "(give a run of 'regen generate ... --domain driving')")
+    if m.behavior.domain != domain and domain == DOMAIN:
+        raise RunError(f"{path} is a {m.behavior.domain} run: its episodes are written with --format lerobot "
+                       "(the parquet and llava formats hold driving samples)")
+    if m.behavior.domain != domain:
+        raise RunError(f"{path} is a {m.behavior.domain} run; --format lerobot writes {domain} episodes only "
+                       "(give the driving runs without --format lerobot)")
     return folder
 
 

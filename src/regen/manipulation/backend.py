@@ -183,6 +183,12 @@ class ManipulationBackend(DomainBackend):
                            "mopped) is not simulated, so whether the context causes the task is not checked "
                            "by simulation")
 
+    def write_episodes(self, run_dirs: list[Path], out: Path) -> dict:
+        """The LeRobot v3 layout (:func:`regen.manipulation.export.lerobot.write_lerobot`)."""
+        from regen.manipulation.export.lerobot import write_lerobot
+
+        return write_lerobot(run_dirs, out)
+
     def policy_harness(self):
         from regen.manipulation.testing.harness import ManipulationHarness
 
