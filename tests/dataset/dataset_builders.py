@@ -113,7 +113,8 @@ def scenario(template: str | None, ego_states: list[tuple[str, list[PredicateCal
                     fsm=FSM(states=states, stages=stages), world=world)
 
 
-def verdict(sc: Scenario, *, status: str = "verified", causal: str = "caused") -> Verdict:
+def verdict(sc: Scenario, *, status: str = "verified", causal: str = "caused", reacts: bool = True) -> Verdict:
+    """``reacts``: whether the reference driver shows the behavior in this world (its with-cause run)."""
     n = len(sc.fsm.stages)
     times = [1.0] + [T_DECIDE + 1.0 * k for k in range(n - 1)]
     stages = [StageResult(index=k + 1, conditions=[f"{c.actor}: {c.state}" for c in st.conditions],
@@ -121,7 +122,8 @@ def verdict(sc: Scenario, *, status: str = "verified", causal: str = "caused") -
     cause = next(s.actor for s in sc.fsm.states if s.cause)
     c = Causal(status=causal, reason=f"the reference driver stops for {cause}; without it it does not",
                by="reference driver (IDM)", behavior="stops", cause=[cause],
-               with_cause=ReferenceRun(shown=True, happened=True, summary="stops at t = 7.0 s"),
+               with_cause=(ReferenceRun(shown=True, happened=True, summary="stops at t = 7.0 s") if reacts else
+                           ReferenceRun(shown=False, happened=False, summary="never stops nor brakes to half its speed")),
                without_cause=ReferenceRun(removed=[cause], shown=False, happened=False,
                                           summary="never stops nor brakes to half its speed"))
     feasible = status in ("verified", "verified_after_relaxation")
@@ -154,9 +156,10 @@ def write_run(root: Path) -> Path:
     sc3 = scenario("stop_abruptly", sid="c3")
     write_scenario(run / "scenarios" / names[2], sc3, trace(steady(10.0)), verdict(sc3))
     wi = run / "whatif" / f"{names[0]}-whatif-abc123"
-    write_scenario(wi, sc, trace(steady(10.0)), verdict(sc, status="fsm_incomplete", causal="not_checked"))
+    # the scripted ego of the what-if still brakes (it replays its reaction); the reference driver does not
+    write_scenario(wi, sc, stop_trace(), verdict(sc, status="fsm_incomplete", causal="not_sufficient", reacts=False))
     write_json(wi / "whatif.json", {
         "original": str((run / "scenarios" / names[0]).resolve()), "edits": [{"op": "remove", "entity": "car1"}],
-        "original_status": "verified", "status": "fsm_incomplete", "explained": False, "causal": "not_checked",
+        "original_status": "verified", "status": "fsm_incomplete", "explained": False, "causal": "not_sufficient",
         "original_causal": "caused", "original_explained": True, "reason": "the ego never brakes"})
     return run

@@ -88,20 +88,30 @@ def test_planning_gives_the_label_and_the_cause() -> None:
 
 
 def test_counterfactual_from_the_but_for_run_and_a_whatif() -> None:
+    """A what-if's answer is what the reference driver did in the edited world, never what the
+    what-if's scripted ego did (it replays its stop whatever the world does)."""
     sc = scenario("stop_abruptly")
     vd = verdict(sc)
     record = WhatIf(original="/x", edits=[{"op": "remove", "entity": "car1"}], original_status="verified",
-                    status="fsm_incomplete", explained=False, causal="not_checked", original_explained=True,
-                    reason="the ego never brakes")
-    qs = counterfactual(vd, Label("stop", 5.0, 2, ""), [{"record": record, "trace": trace(steady(10.0)), "ego": "ego"},
-                                                          {"record": record, "trace": trace(brake(10.0, 0.0)), "ego": "ego"}])
+                    status="verified", explained=False, causal="not_sufficient", original_explained=True,
+                    reason="the reference driver does not stop")
+    braking = trace(brake(10.0, 0.0))  # the scripted ego stops in every what-if below
+    ignores = verdict(sc, causal="not_sufficient", reacts=False).causal
+    still = verdict(sc).causal
+    qs = counterfactual(vd, Label("stop", 5.0, 2, ""), [
+        {"record": record, "trace": braking, "ego": "ego", "causal": ignores},
+        {"record": record.model_copy(update={"explained": True, "causal": "caused"}), "trace": braking,
+         "ego": "ego", "causal": still}])
     assert qs[0].question == "What would the ego do if car1 were not there?"
     assert qs[0].answer.startswith("keep_speed: with car1 removed") and "never stops" in qs[0].answer
     assert qs[1].question == "What if we remove car1?"
-    assert qs[1].answer.startswith("keep_speed: after the edit (remove car1) the simulated scenario is fsm_incomplete")
+    assert qs[1].answer.startswith("keep_speed: after the edit (remove car1), the reference driver (IDM) never stops")
     assert "no longer explained" in qs[1].answer
-    assert qs[2].answer.startswith("stop:")
+    assert qs[2].answer.startswith("stop:") and "still explained" in qs[2].answer
     assert [q.key for q in qs] == ["keep_speed", "keep_speed", "stop"]
     assert all(q.options == tuple(LABELS) for q in qs)
-    no_trace = counterfactual(vd, Label("stop", 5.0, 2, ""), [{"record": record, "trace": None, "ego": "ego"}])
-    assert no_trace[1].answer.startswith("unknown (no trace)") and no_trace[1].key is None  # not scored
+    unchecked = verdict(sc, causal="not_checked").causal
+    for causal in (None, unchecked):  # no reference run in the edited world: not scored
+        got = counterfactual(vd, Label("stop", 5.0, 2, ""),
+                             [{"record": record, "trace": braking, "ego": "ego", "causal": causal}])
+        assert got[1].answer.startswith("unknown") and got[1].key is None

@@ -29,7 +29,7 @@ from typing import Any
 from regen.core.scenario import Scenario
 from regen.core.trace import Trace
 from regen.core.verdict import Verdict
-from regen.dataset.labels import LABELS, Label, classify, ego_name
+from regen.dataset.labels import LABELS, Label, ego_name
 from regen.dataset.motion import LATERAL, STILL, after, headings, relative, speeds, step_at
 
 LAYERS = ("perception", "prediction", "planning", "counterfactual")
@@ -223,24 +223,40 @@ def _without(verdict: Verdict) -> QA | None:
               "verdict.causal.without_cause", ACTIONS, action if action in LABELS else None)
 
 
+def _reacts(run: Any, lab: Label) -> str:
+    """The action of the reference robot's run in a world: the sample's own action where it shows
+    the behavior, else keep_speed (no stop, slowing, lane change or drive-off)."""
+    return lab.action if run.happened else "keep_speed"
+
+
 def counterfactual(verdict: Verdict, lab: Label, whatifs: list[dict[str, Any]]) -> list[QA]:
     """The cause removed (the verdict's but-for run), then each what-if: ``whatifs`` holds
-    dicts with 'record' (regen.whatif.WhatIf), 'trace' (the counterfactual's Trace or None) and
-    'ego' (its ego's name)."""
+    dicts with 'record' (regen.whatif.WhatIf) and 'causal' (the counterfactual verdict's causal
+    part). What the ego does in a what-if is what the reference driver did in the edited world
+    (its ``with_cause`` run), never what the scripted ego did: the scripted ego replays its
+    reaction whatever the world does (a stop at a green light is not an answer)."""
     out = [q for q in [_without(verdict)] if q is not None]
     for w in whatifs:
-        rec, trace = w["record"], w["trace"]
+        rec, causal = w["record"], w.get("causal")
         edits = "; ".join(e.describe() for e in rec.edits)
         question = f"What if {rec.question.rstrip('?')}?" if rec.question else f"What if we {edits}?"
-        if trace is None or w["ego"] not in trace.actors:
-            action = "unknown (no trace)"
+        run = causal.with_cause if causal is not None and causal.status != "not_checked" else None
+        if run is None:
+            action = "unknown (the edited world's cause was not checked with the reference driver)"
+            how = f"causal {causal.status if causal is not None else 'not checked'}"
         else:
-            action = classify(after(trace, w["ego"], lab.t))
+            action = _reacts(run, lab)
+            how = f"the {causal.by or 'reference robot'} {run.summary or c_shown(run, causal.behavior)}"
         still = "still explained" if rec.explained else "no longer explained"
-        answer = (f"{action}: after the edit ({edits}) the simulated scenario is {rec.status}, causal "
-                  f"{rec.causal or 'not checked'}; the ego's behavior is {still}")
-        out.append(QA("counterfactual", question, answer, "whatif", ACTIONS, action if action in LABELS else None))
+        answer = (f"{action}: after the edit ({edits}), {how} (simulated; scenario {rec.status}, causal "
+                  f"{rec.causal or 'not checked'}; the behavior is {still})")
+        out.append(QA("counterfactual", question, answer, "whatif verdict.causal.with_cause", ACTIONS,
+                      action if action in LABELS else None))
     return out
+
+
+def c_shown(run: Any, behavior: str) -> str:
+    return ("shows " if run.shown else "does not show ") + behavior
 
 
 def layers(scenario: Scenario, trace: Trace, verdict: Verdict, lab: Label,

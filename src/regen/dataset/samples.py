@@ -111,8 +111,9 @@ def _whatif_info(d: Path) -> dict[str, Any]:
     from regen.whatif.record import WHATIF_JSON, WhatIf
 
     rec = read_model(d / WHATIF_JSON, WhatIf).value
-    scenario, trace, _ = _read(d)
-    return {"record": rec, "trace": trace, "ego": ego_name(scenario) if scenario else "ego", "folder": d}
+    scenario, trace, verdict = _read(d)
+    return {"record": rec, "trace": trace, "ego": ego_name(scenario) if scenario else "ego", "folder": d,
+            "causal": verdict.causal if verdict is not None else None}
 
 
 def _cases(run: RunFolder) -> dict[str, list[Any]]:
