@@ -102,6 +102,9 @@ class ReportHints:
     animation: str = "animation of the run"
     keyframes: str = "key frames (click for full size)"
     robot: str = "robot"  # what the report calls the robot whose behavior is explained
+    #: [px] the width of one key frame in the strip: a scenario card shows the strip's last frame
+    #: at its own aspect (0: a 4:3 crop of the strip's right end)
+    keyframe_width: int = 0
     #: the behavior tests record the robot's time to collision and gap (``regen test``); a
     #: domain that measures neither gets no such columns
     proximity: bool = False

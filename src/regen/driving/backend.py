@@ -185,8 +185,10 @@ class DrivingBackend(DomainBackend):
         one_part_per_category=("vehicles", "pedestrians"),
     )
     report_hints = ReportHints(animation="bird's-eye animation of the run",
-                               keyframes="key frames at the start, at each stage and at the end "
-                                         "(click for full size)",
+                               keyframes="key frames at the start, at each stage and at the end: "
+                                         "the bird's-eye view, and the ego's forward camera below it "
+                                         "where the camera extra is installed (click for full size)",
+                               keyframe_width=640,
                                robot="ego-vehicle", proximity=True,
                                quantities={
                                    # the placement's parameters (regen.driving.world.placement)

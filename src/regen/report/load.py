@@ -50,6 +50,7 @@ class ScenarioView:
     files: dict[str, str] = field(default_factory=dict)  # linked file name -> relative href
     gif: str | None = None  # href of the domain's animation
     keyframes: str | None = None  # href of the domain's key frames
+    keyframes_height: int | None = None  # [px] of the key-frame strip (its PNG header)
 
     @property
     def chain(self) -> list[str]:
@@ -220,6 +221,7 @@ def load_scenario(run: RunFolder, folder: str, number: int) -> ScenarioView:
         view.gif = href(*rel, roles[ANIMATION])
     if KEYFRAMES in roles:
         view.keyframes = href(*rel, roles[KEYFRAMES])
+        view.keyframes_height = _png_height(sf / roles[KEYFRAMES])
     for role, name in roles.items():
         if role not in (ANIMATION, KEYFRAMES):
             view.files.setdefault(name, href(*rel, name))
@@ -244,6 +246,18 @@ def call_purposes(run_dir: Path, keys: list[str]) -> dict[str, str]:
         log.debug("model cache %s unreadable: %s", path, exc)
         return {}
     return {str(k): str(v) for k, v in rows}
+
+
+def _png_height(path: Path) -> int | None:
+    """[px] the height in a PNG file's header; None for a file that is not a readable PNG."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(24)
+    except OSError:
+        return None
+    if len(head) < 24 or not head.startswith(b"\x89PNG\r\n\x1a\n") or head[12:16] != b"IHDR":
+        return None
+    return int.from_bytes(head[20:24], "big") or None
 
 
 def _hints(domain: str | None) -> ReportHints:

@@ -32,6 +32,16 @@ from regen.media import HOLD_MS  # noqa: E402
 
 DT = 0.1  # [s]
 
+def _camera() -> bool:
+    from regen.driving.render.camera import camera_available
+
+    return camera_available()
+
+
+#: a key frame's height [px]: the 640x480 bird's-eye view, and the 640x360 forward camera below it
+#: where Panda3D is installed
+KEY_H = 480 + (360 if _camera() else 0)
+
 
 def _scenario(actors: dict[str, str], stages: int) -> Scenario:
     names = list(actors)
@@ -134,7 +144,7 @@ def test_a_legend_under_the_animation_names_what_the_run_shows(rendered):
     assert band.shape[0] >= 2 * 16  # two rows of entries at least
     assert _mask(band, EGO, 0).sum() > 50  # the ego's swatch is drawn in the ego's colour
     assert _mask(band, LIGHT_COLORS["red"], 0).sum() > 10
-    assert Image.open(out[KEYFRAMES]).size[1] == 480  # the key frames carry no legend
+    assert Image.open(out[KEYFRAMES]).size[1] == KEY_H  # the key frames carry no legend
 
 
 def test_name_tags_never_cover_each_other_and_keep_off_other_actors():
@@ -234,7 +244,7 @@ def test_keyframe_strip_has_start_each_stage_and_end(rendered):
     _, _, out = rendered
     strip = Image.open(out[KEYFRAMES])
     # stage 1 at t=0 shares the start tile: start, stage 2, stage 3, end
-    assert strip.size == (4 * 640 + 3 * render.KEYFRAME_GAP, 480)
+    assert strip.size == (4 * 640 + 3 * render.KEYFRAME_GAP, KEY_H)
 
 
 def test_many_stages_are_capped_at_six_tiles_and_few_filled_to_four(straight_map, tmp_path):
@@ -326,7 +336,7 @@ def test_the_gif_shows_exactly_the_drawn_frames_and_the_cars_move_in_it(straight
     assert (shown[0][spot] != shown[10][spot]).any()
     assert np.array_equal(shown[0][:20, :20], shown[-1][:20, :20])  # the far corner stays as it is
     strip = Image.open(out[KEYFRAMES])
-    assert strip.size == (4 * 640 + 3 * render.KEYFRAME_GAP, 480)  # start, stages 2 and 3, end
+    assert strip.size == (4 * 640 + 3 * render.KEYFRAME_GAP, KEY_H)  # start, stages 2 and 3, end
 
 
 def test_the_map_is_drawn_as_an_axes_over_the_view_draws_it(straight_map):
@@ -352,3 +362,17 @@ def test_the_map_is_drawn_as_an_axes_over_the_view_draws_it(straight_map):
         drawn = np.asarray(render_map.background(layers, view))
         assert drawn.shape == expected.shape and np.array_equal(drawn, expected), view
         assert (drawn != np.asarray(render_map.GRASS)).any(axis=2).mean() > 0.2  # a road, not grass alone
+
+
+def test_each_key_frame_shows_the_forward_camera_below_the_bird_eye_view(rendered):
+    """The camera row of the strip is the ego's forward view at the key frame's time."""
+    pytest.importorskip("panda3d")
+    from regen.driving.render.camera import camera_frames
+
+    scenario, trace, out = rendered
+    strip = np.asarray(Image.open(out[KEYFRAMES]).convert("RGB"))
+    assert strip.shape[0] == 480 + 360
+    first = camera_frames(scenario, trace, [0.0], size=(640, 360))[0]  # the start tile is t = 0
+    assert np.array_equal(strip[480:, :640], np.asarray(first))
+    last = strip[480:, -640:]
+    assert not np.array_equal(last, np.asarray(first))  # the end tile shows a later view

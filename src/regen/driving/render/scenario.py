@@ -64,6 +64,32 @@ def scene(scenario: Scenario, trace: Trace, what: str):
     return actors, np.asarray(trace.times, float), view, background(map_layers(scenario, trace), view)
 
 
+def with_camera(scenario: Scenario, trace: Trace, tiles: list, times: list[float]) -> list:
+    """Each bird's-eye tile with the ego's forward camera view at the same time below it
+    (:mod:`regen.driving.render.camera`, 16:9 at the tile's width); the tiles as they are, with
+    a warning, where the camera is not installed or fails (the bird's-eye picture is never lost)."""
+    from PIL import Image
+
+    from regen.driving.render.camera import camera_available, camera_frames
+
+    if not tiles or not camera_available():
+        return tiles
+    width = tiles[0].width
+    try:
+        shots = camera_frames(scenario, trace, times, size=(width, round(width * 9 / 16)))
+    except Exception as exc:  # noqa: BLE001 - any renderer failure costs the camera row only
+        log.warning("scenario %s: key frames drawn without the camera view (%s: %s)", scenario.id,
+                    type(exc).__name__, exc)
+        return tiles
+    out = []
+    for tile, shot in zip(tiles, shots, strict=True):
+        both = Image.new("RGB", (width, tile.height + shot.height), (255, 255, 255))
+        both.paste(tile, (0, 0))
+        both.paste(shot, (0, tile.height))
+        out.append(both)
+    return out
+
+
 def render_scenario(scenario: Scenario, trace: Trace, verdict: Verdict, out_dir: Path,
                     options: RenderOptions | None = None) -> dict[str, Path]:
     """Draw a driving run: ``bird_eye.gif`` and ``keyframes.png`` in ``out_dir``.
@@ -71,7 +97,9 @@ def render_scenario(scenario: Scenario, trace: Trace, verdict: Verdict, out_dir:
     The GIF plays in simulated real time at about ``options.fps`` frames per simulated second
     (at most ``options.max_frames`` frames; the last one held :data:`regen.media.HOLD_MS`) at
     640x480 px plus the legend band below (:mod:`regen.driving.render.legend`); the strip shows
-    4-6 frames of 640x480 px side by side (start, each FSM stage reached, end) separated by 4 px.
+    4-6 frames of 640x480 px side by side (start, each FSM stage reached, end) separated by 4 px,
+    each with the ego's forward camera view below it where Panda3D is installed (the ``camera``
+    extra; :func:`with_camera`).
     Returns ``{ANIMATION: gif path, KEYFRAMES: png path}`` (roles of :mod:`regen.domains`).
     A trace without steps or actors raises :class:`ConfigError`; a map that cannot be read is
     drawn as plain ground with a warning.
@@ -90,7 +118,8 @@ def render_scenario(scenario: Scenario, trace: Trace, verdict: Verdict, out_dir:
 
     picks = keyframe_steps(times, story, max(1, options.keyframes))
     still = Frames(bg, view, actors, story, times)  # key frames carry no legend
-    tiles = [still.draw(i, title=title) for i, title in picks]
+    tiles = with_camera(scenario, trace, [still.draw(i, title=title) for i, title in picks],
+                        [float(times[i]) for i, _ in picks])
     png = media.write_png(out_dir / KEYFRAMES_FILE, media.strip(tiles, gap_px=KEYFRAME_GAP),
                           compress_level=KEYFRAMES_ZLIB)
     log.info("rendered %s: %d GIF frames (%.0f kB), %d key frames", scenario.id, len(steps),
