@@ -45,8 +45,8 @@ def _light(state, x=30.0, y=-6.0, name="light") -> ActorState:
                   light_state=state)
 
 
-def _walker(vy, x=20.0, y=-6.0) -> ActorState:
-    return _actor("adult", x=x, y=y, vy=vy, category="pedestrian", asset="adult", length=0.5,
+def _walker(vy, x=20.0, y=-6.0, vx=0.0) -> ActorState:
+    return _actor("adult", x=x, y=y, vx=vx, vy=vy, category="pedestrian", asset="adult", length=0.5,
                   width=0.5)
 
 
@@ -114,6 +114,14 @@ def test_waits_for_a_pedestrian_just_beside_its_path():
     # margin, standing still
     assert _accel(_walker(vy=0.0, y=-1.75 - 2.5)) < -1.0
     assert _accel(_walker(vy=0.0, y=-1.75 - 6.0)) == pytest.approx(0.0, abs=1e-9)
+
+
+def test_passes_a_pedestrian_walking_along_the_pavement_beside_its_path():
+    # the same place, 2.5 m beside the path, walking along it (either way): passed, not waited for
+    assert _accel(_walker(vx=-1.2, vy=0.0, y=-1.75 - 2.5)) == pytest.approx(0.0, abs=1e-9)
+    assert _accel(_walker(vx=1.2, vy=0.0, y=-1.75 - 2.5)) == pytest.approx(0.0, abs=1e-9)
+    # walking along but edging towards the path: still waited for
+    assert _accel(_walker(vx=-1.2, vy=0.4, y=-1.75 - 2.5)) < -1.0
 
 
 # --- 4. emergency vehicles ----------------------------------------------------------------------

@@ -188,12 +188,20 @@ def _reach(ego: EgoState, a: ActorState) -> float:
     return ego.width / 2 + max(a.width, a.length if a.category == "pedestrian" else a.width) / 2 + door + 0.3
 
 
+def walks_along(along: float, lat: float, lat_rate: float) -> bool:
+    """Whether a pedestrian beside the path walks along it (0.5 m/s or more along the path and
+    not towards it): a driver passes one on the pavement, as it would not one standing at the
+    kerb or stepping off it."""
+    return abs(along) >= 0.5 and not (lat * lat_rate < 0 and abs(lat_rate) > 0.2)
+
+
 def obstacles_in_path(obs: Observation, *, horizon: float = 0.0,
                       pedestrian_margin: float = 0.0) -> list[Obstacle]:
     """Actors in the ego's path ahead, nearest first; with ``horizon`` [s] > 0 also those whose
     constant-velocity motion brings them into the path within that time (crossing actors), as
-    stopped obstacles where they will enter it. A pedestrian counts as in the path also within
-    ``pedestrian_margin`` [m] beside it (a yielding driver waits until it has stepped clear)."""
+    stopped obstacles where they will enter it. A pedestrian standing or stepping towards the path
+    counts as in it also within ``pedestrian_margin`` [m] beside it (a yielding driver waits until
+    it has stepped clear); one walking along beside the path (:func:`walks_along`) does not."""
     ego = obs.ego
     out: list[Obstacle] = []
     for a in obs.actors:
@@ -204,12 +212,14 @@ def obstacles_in_path(obs: Observation, *, horizon: float = 0.0,
         if s <= 0 or s > ROUTE_AHEAD + ego.length:
             continue
         along = a.vx * ux + a.vy * uy
-        reach = _reach(ego, a) + (pedestrian_margin if a.category == "pedestrian" else 0.0)
+        lat_rate = -a.vx * uy + a.vy * ux
+        reach = _reach(ego, a)
+        if a.category == "pedestrian" and abs(lat) > reach and not walks_along(along, lat, lat_rate):
+            reach += pedestrian_margin  # at the kerb, or stepping towards the path
         if abs(lat) <= reach:
             out.append(Obstacle(front, along, a.name))
             continue
         if horizon > 0:
-            lat_rate = -a.vx * uy + a.vy * ux
             if lat * lat_rate < 0 and abs(lat_rate) > 0.2:  # moving towards the path
                 t_in = (abs(lat) - reach) / abs(lat_rate)
                 if t_in <= horizon:

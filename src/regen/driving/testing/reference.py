@@ -12,8 +12,9 @@ exists:
   T = 1.5 s, minimum gap s0 = 2 m, maximum acceleration a = 2 m/s^2, comfortable deceleration
   b = 3 m/s^2, exponent delta = 4. The nearest of these is its leader: an actor in its path; an
   actor whose motion brings it into the path within 3 s (a pedestrian, cyclist or car crossing),
-  stopped where it will enter; a pedestrian within 1.5 m beside the path (it waits until the
-  pedestrian has stepped clear); a red light, or a yellow one it can stop for at 3 m/s^2 (a stop
+  stopped where it will enter; a pedestrian standing or stepping towards the path within 1.5 m
+  beside it (it waits until the pedestrian has stepped clear; one walking along the pavement
+  beside the path at 0.5 m/s or more is passed); a red light, or a yellow one it can stop for at 3 m/s^2 (a stop
   line 2 m before the light); a dark light (``light_state`` off: out of order), treated as an
   all-way stop as most traffic codes require (a stop line 2 m before it, kept until it has stood
   there ``dark_wait`` = 2 s); an emergency vehicle with its siren on coming closer within 40 m
