@@ -82,6 +82,16 @@ def _replay(job: dict, folder: Path, pictures: bool) -> tuple[list[dict], dict[s
              for o in res.outcomes], dict(res.manifest.timings))
 
 
+def _cache_stats() -> dict[str, dict[str, int]]:
+    """Hits and misses of the process's Scenic caches so far (statements parsed, modules
+    translated), where the driving domain is installed."""
+    try:
+        from regen.driving.simulation import compile_cache, parse_cache
+    except ImportError:
+        return {}
+    return {"parse": dict(parse_cache.stats), "translate": dict(compile_cache.stats)}
+
+
 def worker(pictures: bool, rounds: int, runs: list[str], profile: bool) -> None:
     """In a fresh process: replay every job ``rounds`` times; print one JSON line per round."""
     t_import = time.perf_counter()
@@ -116,7 +126,8 @@ def worker(pictures: bool, rounds: int, runs: list[str], profile: bool) -> None:
                 for stage, sec in totals.items():
                     stages[stage] = stages.get(stage, 0.0) + sec
             print(json.dumps({"round": k, "import": import_s, "wall": wall, "cpu": cpu, "scenarios": scenarios,
-                              "stages": stages, "skipped": skipped}), flush=True)
+                              "stages": stages, "skipped": skipped, "jobs": len(jobs) - len(skipped),
+                              "caches": _cache_stats()}), flush=True)
     if prof:
         import pstats
 
@@ -143,6 +154,10 @@ def _report(mode: str, rows: list[dict]) -> None:
         ok = sum(s["feasible"] for s in sc)
         wall, cpu = sum(r["wall"] for r in group), sum(r["cpu"] for r in group)
         print(f"{name:10} {len(sc):9d} {ok:8d} {wall:8.2f} {cpu:7.2f} {_rate(ok, wall):25.1f} {_rate(ok, cpu):7.1f}")
+        jobs = sum(r.get("jobs", 0) for r in group)
+        if jobs and ok:
+            print(f"{'':10} cpu per job {cpu / jobs:.2f} s, per verified scenario {cpu / ok:.2f} s "
+                  f"({jobs} jobs)")
     for name, group in groups[:2]:
         sc = [s for r in group for s in r["scenarios"]]
         if not sc:
@@ -152,9 +167,13 @@ def _report(mode: str, rows: list[dict]) -> None:
             vals = [s["timings"][key] for s in sc if key in s["timings"]]
             if vals:
                 cells.append(f"{label} {statistics.mean(vals):.3f}/{statistics.median(vals):.3f}")
-        print(f"  per scenario, {name} (mean/median [s]): " + ", ".join(cells))
+        print(f"  per scenario, {name} (mean/median [s, wall]): " + ", ".join(cells))
         stages = {k: sum(r["stages"].get(k, 0.0) for r in group) for k in group[0]["stages"]}
-        print(f"  stage totals, {name} [s]: " + ", ".join(f"{k} {v:.2f}" for k, v in stages.items()))
+        print(f"  stage totals, {name} [s, wall]: " + ", ".join(f"{k} {v:.2f}" for k, v in stages.items()))
+        caches = group[-1].get("caches") or {}
+        if caches:  # counts so far in the process: the last round's
+            print(f"  Scenic caches after {name} (hits/misses): "
+                  + ", ".join(f"{k} {v['hits']}/{v['misses']}" for k, v in caches.items()))
 
 
 def main() -> None:

@@ -15,7 +15,7 @@ import pytest
 from driving_chains import FEASIBLE
 
 from regen.driving.grounding.rules import ground_rule_based
-from regen.driving.simulation import parse_cache
+from regen.driving.simulation import compile_cache, parse_cache
 from regen.driving.simulation.scenario import scenic_program
 
 scenic = pytest.importorskip("scenic")
@@ -38,6 +38,14 @@ SNIPPETS = {
                                "finally:\n    b = 3\n"),
     "continued lines and comments": "x = [1,\n     2,  # two\n     3]\n\n# between\ny = \\\n    4\n",
     "no final newline": "x = 1\ny = 2",
+    "signed numbers": ("x = (-1.5, 2, -3)\ny = f(a=-1, b=[-2, -3.5], c={1: -2}, d=x[1:-2], e=(- 4))\n"
+                       "z = a -1\nw = a - -1\nv = 5 * -1 ** -2\nu = [(-1, -2), (-3, -4), (5, -6)]\n"),
+    "strings as literals": ("n = 'ego'\nm = f(\"a\", 'b' 'c', x='d'.join([]), y=b'e', z=f'{n}', w='''t''')\n"
+                            "k = ['x', 'y', 'z'] + [('a', 1), ('b', -2), ('c', 3)]\n"),
+    "runs of like tuples": ("r = f([(1.5, -2.0), (3.25, -4.0), (5.0, -6.5), (-7.0, 8.0), (-9.5, 1.0), (-2.0, 3.0), "
+                            "(4.0, 5.0)], [(1, 2, 3)], [(1, 2), (3, 4), (5, 6)], y[(1, 2), (3, 4), (5, 6)], "
+                            "[(1, 'a'), (2, 'b'), (3, 'c')], [(1, 2), (3, 4), (5, 6), (7, 8)][0])\n"
+                            "z = [(_, 1), (2, 3), (4, 5), (6, 7)] + [(1, 2),\n  (3, 4), (5, 6), (7, 8)]\n"),
 }
 
 
@@ -68,8 +76,10 @@ def _renumbered(text: str, seed: int) -> str:
 @pytest.fixture(autouse=True)
 def _empty_cache():
     parse_cache.clear()
+    compile_cache.clear()
     yield
     parse_cache.clear()
+    compile_cache.clear()
 
 
 @pytest.mark.parametrize("key,i", CHAINS)
@@ -99,6 +109,22 @@ def test_awkward_statements_parse_as_scenic_parses_them(name) -> None:
         assert _dump(parse_cache.parse_module(text, _scenic_parse)) == _dump(_scenic_parse(text))
     renumbered = _renumbered(text.replace("1", "9"), 1)
     assert _dump(parse_cache.parse_module(renumbered, _scenic_parse)) == _dump(_scenic_parse(renumbered))
+
+
+def test_routes_of_other_lengths_share_a_parse() -> None:
+    def program(n: int, m: int) -> str:
+        route = ", ".join(f"({1.5 * k}, -{k + 0.25})" for k in range(n))
+        route += "".join(f", (-{k}.5, {k})" for k in range(1, m + 1))
+        return f"ego = new Car at (1, 2),\n    with behavior FollowRoute([{route}], [(0.0, 8.0, 0.0)], None)\n"
+
+    for n, m in ((12, 0), (40, 5), (3, 3)):
+        text = program(n, m)
+        assert _dump(parse_cache.parse_module(text, _scenic_parse)) == _dump(_scenic_parse(text))
+    misses = parse_cache.stats["misses"]
+    for n, m in ((7, 0), (90, 4), (5, 30)):
+        text = program(n, m)
+        assert _dump(parse_cache.parse_module(text, _scenic_parse)) == _dump(_scenic_parse(text))
+    assert parse_cache.stats["misses"] == misses
 
 
 def test_a_number_where_a_name_parses_otherwise_is_parsed_as_written() -> None:
@@ -150,23 +176,29 @@ def test_the_cache_is_bounded(monkeypatch) -> None:
 
 def _without_cache(monkeypatch) -> None:
     monkeypatch.setattr(parse_cache, "cached_parsing", contextlib.nullcontext)
+    monkeypatch.setattr(compile_cache, "cached_compilation", contextlib.nullcontext)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("key,i", CHAINS)
 def test_a_scenario_simulated_through_the_cache_records_the_same_trace(key, i, monkeypatch) -> None:
     """Trace by trace, every recorded number: without the cache, with it cold, with it warm."""
+    from regen.driving.simulation import run as run_module
     from regen.driving.simulation.run import run_program
     from regen.driving.simulation.scenario import timing
 
     scenario = ground_rule_based(FEASIBLE[key][i], seed=0)
     text = scenic_program(scenario)
     dt, steps, seed = timing(scenario)
+    def fresh():  # compiled again, not the compiled program kept from the run before
+        run_module._RECENT.clear()
+        return run_program(text, steps=steps, dt=dt, seed=seed)
+
     with monkeypatch.context() as m:
         _without_cache(m)
-        plain = run_program(text, steps=steps, dt=dt, seed=seed)
-    runs = [run_program(text, steps=steps, dt=dt, seed=seed) for _ in range(2)]
-    assert parse_cache.stats["hits"] > 0
+        plain = fresh()
+    runs = [fresh() for _ in range(2)]
+    assert parse_cache.stats["hits"] > 0 and compile_cache.stats["hits"] > 0
     for run in runs:
         for column in ("times", "x", "y", "heading", "speed"):
             assert getattr(run, column) == getattr(plain, column), column
@@ -176,11 +208,13 @@ def test_a_scenario_simulated_through_the_cache_records_the_same_trace(key, i, m
 def test_the_main_jobs_stages_give_the_same_traces_and_verdicts_through_the_cache(tmp_path, monkeypatch) -> None:
     """run_path (simulate, verify, the causal check's reference runs) with and without the
     cache: trace.json and verdict.json identical, byte for byte."""
+    from regen.driving.simulation import run as run_module
     from regen.driving.testing import loop
     from regen.pipeline import run_path
 
     def run(folder: Path) -> tuple[str, str]:
         monkeypatch.setattr(loop, "_COMPILED", {})  # the reference runs compile again, too
+        run_module._RECENT.clear()
         outcome = run_path(FEASIBLE["slow_down"][2], folder, pictures=False)
         assert outcome.verdict.status != "simulation_failed", outcome.verdict.reason
         return (folder / "trace.json").read_text(), (folder / "verdict.json").read_text()

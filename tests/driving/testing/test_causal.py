@@ -98,3 +98,56 @@ def test_the_manipulation_domain_says_why_it_does_not_check():
 
     with pytest.raises(NotCheckable, match="only stand in place"):
         domains.make("manipulation").reference_world(None, [])  # type: ignore[arg-type]
+
+
+def test_a_run_without_an_entity_reuses_the_whole_worlds_program_and_records_what_its_own_does():
+    """The reference runs without some entities generate the whole world's compiled program
+    and leave those objects out: the same trace as compiling the smaller world's program."""
+    from regen.driving.testing import loop
+    from regen.driving.testing.causal import without
+    from regen.driving.testing.reference import ReferenceDriver
+
+    scenario = ground_rule_based(CHILD_AND_LIGHT)
+    whole = loop.prepare(scenario)
+    for removed in ({"child1"}, {"traffic_light1"}):
+        world = without(scenario, frozenset(removed))
+        shared = loop.prepare(world, within=whole)
+        assert shared.leave_out == frozenset(removed) and shared.compiled is whole.compiled
+        own = loop.prepare(world)
+        assert not own.leave_out and own.compiled is not whole.compiled
+        traces = [loop.run_policy(p, ReferenceDriver(), step_timeout=None).trace for p in (shared, own)]
+        assert traces[0].model_dump_json() == traces[1].model_dump_json()
+        assert not set(removed) & set(traces[0].actors)
+
+
+def test_a_run_asked_for_twice_is_simulated_once_and_handed_out_as_a_copy():
+    world = reference_world(ground_rule_based(CHILD_AND_LIGHT), ["child1"])
+    first = world.run(frozenset())
+    first.removed = ["changed by the caller"]
+    again = world.run(frozenset())
+    assert again.removed == [] and again == world.run(frozenset())
+    assert len(world._runs) == 1
+
+
+def test_the_reference_world_reuses_the_scripted_program_just_run_and_records_what_its_own_does():
+    """After the simulate stage ran the scenario's program, the reference world generates that
+    compiled program and drops the ego's behavior: the same trace as compiling its own."""
+    from regen.driving.simulation.scenario import scenic_program, timing
+    from regen.driving.testing import loop
+    from regen.driving.testing.reference import ReferenceDriver
+
+    scenario = ground_rule_based(CHILD_AND_LIGHT)
+    assert loop._without_ego_behavior("ego = new Car at (1, 2),\n    with name 'ego'\n") is None
+    dt, steps, seed = timing(scenario)
+    from regen.driving.simulation.run import run_program
+
+    run_program(scenic_program(scenario), steps=steps, dt=dt, seed=seed)
+    loop._COMPILED.clear()
+    shared = loop.prepare(scenario)
+    assert shared.scripted_ego and not shared.leave_out
+    own = loop._compiled_here(shared)
+    assert not own.scripted_ego and own.compiled is not shared.compiled
+    within = loop.prepare(scenario, within=shared)  # a world within it inherits the dropped behavior
+    assert within.scripted_ego and within.compiled is shared.compiled
+    traces = [loop.run_policy(p, ReferenceDriver(), step_timeout=None).trace for p in (shared, own)]
+    assert traces[0].model_dump_json() == traces[1].model_dump_json()

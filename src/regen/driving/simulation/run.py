@@ -12,8 +12,11 @@ import functools
 import gc
 import logging
 import math
+import numbers
 import random
+import threading
 import time
+from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -65,6 +68,104 @@ def raw_run(log: list[Snapshot], names: list[str], dt: float, timings: dict[str,
     return run
 
 
+def object_properties(sim, obj, properties) -> dict:
+    """What Scenic's Newtonian simulation reports of ``obj`` after a step (its
+    ``getProperties``, value for value), with the one costly part memoized per simulation.
+
+    Scenic turns the object's heading into a yaw in its parent's frame through two scipy
+    rotations and its random-value checks at every step, for every object: 0.3 ms each, the
+    largest part of a simulated step (profiled, issue 39). That yaw is a pure function of the
+    parent orientation's quaternion and the heading, and most objects keep their heading from
+    one step to the next (parked, walking straight, driving a straight lane), so it is computed
+    once per (quaternion, heading), keyed on the heading's exact bits (0.0 and -0.0 apart)."""
+    memo = sim.__dict__.setdefault("_regen_yaw", {})
+    parent, heading = obj.parentOrientation, obj.heading
+    key = (parent.q.tobytes(), heading, math.copysign(1.0, heading))
+    yaw = memo.get(key)
+    if yaw is None:
+        yaw, _, _ = parent.globalToLocalAngles(heading, 0, 0)
+        memo[key] = yaw
+    values = dict(position=obj.position, yaw=yaw, pitch=0, roll=0, velocity=obj.velocity,
+                  speed=obj.speed, angularSpeed=obj.angularSpeed, angularVelocity=obj.angularVelocity)
+    if "elevation" in properties:
+        values["elevation"] = obj.elevation
+    return values
+
+
+def _bits(v: float) -> tuple[float, float]:
+    """A float as a memo key: its value and sign (0.0 and -0.0 apart)."""
+    return v, math.copysign(1.0, v)
+
+
+@functools.cache
+def _oriented_recomputers() -> dict:
+    """Scenic's recomputers of an oriented object's dynamic final properties (its orientation
+    from parent orientation, yaw, pitch and roll; its heading from those), by property."""
+    from scenic.core.object_types import OrientedPoint
+
+    return dict(OrientedPoint._dynamicFinalProperties)
+
+
+def _recompute_finals(memo: dict, obj) -> None:
+    """``obj._recomputeDynamicFinals()``, the values memoized per simulation: for an object whose
+    dynamic finals are Scenic's orientation and heading (all of the driving model's), they are a
+    pure function of its class, parent orientation, yaw, pitch and roll (two scipy rotations at
+    every step otherwise); the same values are specified in the same order."""
+    from scenic.core.lazy_eval import valueInContext
+
+    finals = obj._dynamicFinalProperties
+    if finals != _oriented_recomputers():
+        obj._recomputeDynamicFinals()
+        return
+    # while it is simulated, an object's properties live on its dynamic proxy (Scenic's own
+    # method runs bound to it): read and specify them there
+    proxy = object.__getattribute__(obj, "_dynamicProxy")
+    parent = proxy.parentOrientation
+    key = (type(proxy), id(parent), *_bits(proxy.yaw), *_bits(proxy.pitch), *_bits(proxy.roll))
+    values = memo.get(key)
+    if values is None:
+        values = []
+        for prop, recomputer in finals.items():  # as Scenic does it, the values kept
+            value = valueInContext(recomputer(proxy), proxy)
+            proxy._specify(proxy, prop, value)
+            values.append((prop, value))
+        memo[key] = (parent, values)  # the parent kept alive: its id stays its own
+        return
+    for prop, value in values[1]:
+        proxy._specify(proxy, prop, value)
+
+
+def update_objects(sim) -> None:
+    """Scenic's ``Simulation.updateObjects`` (every simulator-provided property read, checked
+    and assigned, dynamic finals recomputed, caches cleared), with the dynamic finals memoized
+    (:func:`_recompute_finals`). A simulation that writes or checks a replay's divergence data
+    takes Scenic's own (regen's do neither)."""
+    if (sim._replayOut and sim._writeDivergenceData) or sim.replayCanContinue():
+        from scenic.core.simulators import Simulation
+
+        Simulation.updateObjects(sim)
+        return
+    memo = sim.__dict__.setdefault("_regen_finals", {})
+    for obj in sim.objects:
+        dyn_types = obj._simulatorProvidedProperties
+        properties = set(dyn_types)
+        values = sim.getProperties(obj, properties)
+        assert properties == set(values), properties ^ set(values)
+        for prop, value in values.items():
+            ty = dyn_types[prop]
+            if ty is float and isinstance(value, numbers.Real):
+                value = float(value)
+            elif ty is type(None):
+                ty = type(value)
+                dyn_types[prop] = ty
+            if not isinstance(value, ty):
+                raise RuntimeError(f'simulator provided value for property "{prop}" with type '
+                                   f"{type(value).__name__} instead of expected {ty.__name__}")
+            setattr(obj, prop, value)
+        _recompute_finals(memo, obj)
+        obj._clearCaches()
+
+
 @functools.cache
 def _recording_simulator_class():
     """A NewtonianSimulator whose simulations record every object after every step."""
@@ -82,6 +183,12 @@ def _recording_simulator_class():
         def step(self):
             super().step()
             self._regen_record()
+
+        def getProperties(self, obj, properties):
+            return object_properties(self, obj, properties)
+
+        def updateObjects(self):
+            update_objects(self)
 
     class RecordingSimulator(newtonian.NewtonianSimulator):
         def createSimulation(self, scene, **kwargs):
@@ -111,25 +218,56 @@ def _collector_paused():
 def compile_program(text: str, *, filename: str = "<regen>"):
     """Compile Scenic source into a scenario; Scenic errors become :class:`SimulationError`.
 
-    Scenic's parsing, 95% of a compilation, goes through the process's statement cache
+    Scenic's parsing, 95% of an uncached compilation, goes through the process's statement cache
     (:mod:`regen.driving.simulation.parse_cache`): the world model and the program's helpers are
-    parsed once, an actor that differs only in its numbers reuses its parse. The cyclic garbage
-    collector waits while Scenic compiles (:func:`_collector_paused`). Together: 0.14 s instead
-    of 1.0-2.0 s per compilation, the same compiled scenario."""
-    from regen.driving.simulation.parse_cache import cached_parsing
+    parsed once, an actor that differs only in its numbers reuses its parse. The world model's
+    modules are translated to bytecode once per process
+    (:mod:`regen.driving.simulation.compile_cache`). The cyclic garbage collector waits while
+    Scenic compiles (:func:`_collector_paused`). Together: 0.06-0.1 s instead of 1.0-2.0 s per
+    compilation, the same compiled scenario. One compilation at a time per process (Scenic's
+    compiler state is global): threads wait for each other here."""
+    from regen.driving.simulation.compile_cache import cached_compilation
 
     scenic, _ = scenic_modules()
     try:
-        with cached_parsing(), _collector_paused():
+        with cached_compilation(), _collector_paused():
             return scenic.scenarioFromString(text, filename=filename, mode2D=True)
     except Exception as exc:  # Scenic raises many error types; all mean "this program is bad"
         raise SimulationError(f"Scenic could not compile the program: {type(exc).__name__}: {exc}") from exc
 
 
+_RECENT: OrderedDict[str, object] = OrderedDict()  # program text -> its compiled scenario, the last few run
+KEEP_RECENT = 4  # compiled programs kept (each holds its own copy of the road network)
+
+
+def recently_compiled(text: str):
+    """The compiled scenario of a program :func:`run_program` ran lately, or None. Scenic makes
+    a fresh scene (fresh objects and behaviors) at every ``generate``, so it serves again."""
+    with _RECENT_LOCK:
+        return _RECENT.get(text)
+
+
+_RECENT_LOCK = threading.Lock()
+
+
+def _compiled(text: str):
+    """``compile_program(text)``, or the compiled scenario of the same text run lately."""
+    scenario = recently_compiled(text)
+    if scenario is None:
+        scenario = compile_program(text)
+        with _RECENT_LOCK:
+            _RECENT[text] = scenario
+            while len(_RECENT) > KEEP_RECENT:
+                _RECENT.popitem(last=False)
+    return scenario
+
+
 def run_program(text: str, *, steps: int, dt: float, seed: int = 0) -> RawRun:
-    """Compile and simulate ``steps`` steps of ``dt`` seconds; return what was recorded."""
+    """Compile and simulate ``steps`` steps of ``dt`` seconds; return what was recorded. The
+    compiled program is kept a while (:func:`recently_compiled`): the causal check's reference
+    runs of the same scenario start from it."""
     t0 = time.perf_counter()
-    scenario = compile_program(text)
+    scenario = _compiled(text)
     t1 = time.perf_counter()
     random.seed(seed)
     np.random.seed(seed)

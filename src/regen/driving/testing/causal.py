@@ -29,7 +29,7 @@ reference driver yields to an actor up to 3 s before it enters its path, never e
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -189,6 +189,8 @@ class DrivingReferenceWorld:
     cause: frozenset[str]
     by: str = BY
     behavior: str = ""
+    _runs: dict[frozenset[str], ReferenceRun] = field(default_factory=dict, init=False, repr=False)
+    _whole: loop.Prepared | None = field(default=None, init=False, repr=False)  # the run with nothing removed
 
     def __post_init__(self) -> None:
         from regen.driving.grounding.rules import template_of
@@ -206,8 +208,18 @@ class DrivingReferenceWorld:
         self.cruise = max([t.speed0] + [s for _, s, _ in t.schedule])
 
     def run(self, removed: frozenset[str]) -> ReferenceRun:
+        """The reference driver in the world without ``removed`` (a run asked for twice is
+        simulated once). The worlds with fewer entities reuse the compiled program of the
+        whole world, their objects left out (:func:`regen.driving.testing.loop.prepare`)."""
+        if removed not in self._runs:
+            self._runs[removed] = self._run(removed)
+        return self._runs[removed].model_copy(deep=True)
+
+    def _run(self, removed: frozenset[str]) -> ReferenceRun:
         world = without(self.scenario, removed)
-        prep = loop.prepare(world)
+        prep = loop.prepare(world, within=self._whole)
+        if not removed:
+            self._whole = prep
         prep = dataclasses.replace(prep, template=dataclasses.replace(prep.template, route=self.route))
         driver = ReferenceDriver(lanes=self.lanes)
         ep = loop.run_policy(prep, driver, step_timeout=None)

@@ -27,7 +27,7 @@ import numpy as np
 
 from regen.core.scenario import Scenario
 from regen.driving.simulation.record import BRAKE_LIGHT_DECEL
-from regen.driving.simulation.run import snapshot
+from regen.driving.simulation.run import object_properties, snapshot, update_objects
 from regen.driving.testing.policies import (
     MAX_ACCEL,
     MAX_BRAKE,
@@ -64,35 +64,117 @@ class Prepared:
     map_name: str
     map_path: str
     compile_time: float  # [s]
+    #: names of objects of ``compiled`` that this world leaves out of every scene it generates
+    #: (``compiled`` is the program of a world with more actors: :func:`prepare`'s ``within``)
+    leave_out: frozenset[str] = frozenset()
+    #: ``compiled`` is the scenario's own program, its ego scripted: each scene drops the ego's
+    #: behavior (:func:`prepare`)
+    scripted_ego: bool = False
 
 
 _COMPILED: dict[str, object] = {}  # program text -> compiled Scenic scenario (compiling takes ~1-2 s)
 
 
-def prepare(scenario: Scenario) -> Prepared:
-    """Plans and the compiled Scenic program with a behavior-less ego (cached per program)."""
-    from regen.driving.grounding.rules import plans_for
+def _program(scenario: Scenario, plans: list[ActorPlan]) -> str:
+    """The Scenic program of ``scenario``'s world with these plans (as the simulate stage writes it)."""
     from regen.driving.simulation.program import write_program
+    from regen.driving.simulation.scenario import map_name, timing
+    from regen.driving.world.maps import ensure_map
+
+    dt, steps, seed = timing(scenario)
+    return write_program(plans, map_path=str(ensure_map(map_name(scenario))), dt=dt, max_steps=steps,
+                         narrative=scenario.narrative, seed=seed, title=scenario.behavior.text)
+
+
+def _shared(within: Prepared, plans: list[ActorPlan], text: str) -> frozenset[str] | None:
+    """The actors to leave out of ``within``'s program so that it is the program ``text`` of
+    ``plans``: None unless ``text`` is exactly ``within``'s program written without them.
+
+    The program writes each actor as its own statement that names no other actor but the ego
+    (program.scenic.j2), so a program without some actors compiles to the same objects, the same
+    behaviors, minus theirs; generating a scene and leaving their objects out of it simulates
+    what compiling the smaller program does, without compiling it (the but-for check's runs,
+    :mod:`regen.driving.testing.causal`)."""
+    if within.leave_out:
+        return None
+    names = {p.name for p in plans}
+    kept = [p for p in within.plans if p.name in names]
+    if len(kept) != len(plans) or _program(within.scenario, kept) != text:
+        return None
+    return frozenset(p.name for p in within.plans if p.name not in names and p.cls)
+
+
+def _without_ego_behavior(text: str) -> str | None:
+    """A program with its ego's ``with behavior ...`` clause taken out (the clause's line, and
+    the comma before it), as the program writes it (program.scenic.j2); None where it has none."""
+    lines = text.split("\n")
+    start = next((i for i, line in enumerate(lines) if line.startswith("ego = new ")), None)
+    if start is None:
+        return None
+    end = start + 1
+    while end < len(lines) and lines[end].startswith("    "):
+        end += 1
+    last = end - 1  # the statement's last line
+    if last == start or not lines[last].startswith("    with behavior ") or not lines[last - 1].endswith(","):
+        return None
+    return "\n".join(lines[:last - 1] + [lines[last - 1][:-1]] + lines[end:])
+
+
+def _scripted(scenario: Scenario, scripted_plans: list[ActorPlan], text: str):
+    """The compiled program of the scenario with its scripted ego, where the simulate stage has
+    just run it (:func:`regen.driving.simulation.run.recently_compiled`) and ``text`` is that
+    program without the ego's behavior clause: with the ego's behavior dropped from each scene,
+    it is the program ``text`` compiles to (the ego's behavior is its own statement's last
+    clause; nothing else reads it). Else None."""
+    from regen.driving.simulation.run import recently_compiled
+
+    scripted = _program(scenario, scripted_plans)
+    compiled = recently_compiled(scripted)
+    if compiled is None or _without_ego_behavior(scripted) != text:
+        return None
+    return compiled
+
+
+def prepare(scenario: Scenario, *, within: Prepared | None = None) -> Prepared:
+    """Plans and the compiled Scenic program with a behavior-less ego (cached per program).
+
+    Compiling is skipped where a program already compiled serves: the scenario's own program,
+    its scripted ego's behavior dropped from each scene (:attr:`Prepared.scripted_ego`), where
+    the simulate stage ran it just before; and ``within``: a prepared world with the same
+    actors and more, where this world's program is that one's without the extra actors: its
+    compiled program, their objects left out of each scene (:attr:`Prepared.leave_out`)."""
+    from regen.driving.grounding.rules import plans_for
     from regen.driving.simulation.run import compile_program
     from regen.driving.simulation.scenario import map_name, timing
     from regen.driving.world.maps import ensure_map
 
-    template, plans = plans_for(scenario)
+    template, scripted_plans = plans_for(scenario)
     plans = [dataclasses.replace(p, scenic_behavior="", schedule=[]) if p.name == "ego" else p
-             for p in plans]
+             for p in scripted_plans]
     dt, steps, seed = timing(scenario)
     name = map_name(scenario)
     map_path = str(ensure_map(name))
-    text = write_program(plans, map_path=map_path, dt=dt, max_steps=steps,
-                         narrative=scenario.narrative, seed=seed, title=scenario.behavior.text)
+    text = _program(scenario, plans)
     t0 = time.perf_counter()
-    if text not in _COMPILED:
-        if len(_COMPILED) >= 16:
-            _COMPILED.pop(next(iter(_COMPILED)))
-        _COMPILED[text] = compile_program(text)
-    return Prepared(scenario=scenario, plans=plans, template=template, compiled=_COMPILED[text],
+    leave_out = _shared(within, plans, text) if within is not None and text not in _COMPILED else None
+    scripted_ego = False
+    if leave_out is not None:
+        compiled, scripted_ego = within.compiled, within.scripted_ego
+    else:
+        leave_out = frozenset()
+        compiled = _scripted(scenario, scripted_plans, text) if text not in _COMPILED else None
+        if compiled is not None:
+            scripted_ego = True
+        else:
+            if text not in _COMPILED:
+                if len(_COMPILED) >= 16:
+                    _COMPILED.pop(next(iter(_COMPILED)))
+                _COMPILED[text] = compile_program(text)
+            compiled = _COMPILED[text]
+    return Prepared(scenario=scenario, plans=plans, template=template, compiled=compiled,
                     dt=dt, steps=steps, seed=seed, map_name=name, map_path=map_path,
-                    compile_time=time.perf_counter() - t0)
+                    compile_time=time.perf_counter() - t0, leave_out=leave_out,
+                    scripted_ego=scripted_ego)
 
 
 def _at(schedule: list[tuple[float, str]], t: float) -> str | None:
@@ -233,6 +315,12 @@ def _simulator_class():
             super().step()
             self.regen_driver.record(self)
 
+        def getProperties(self, obj, properties):
+            return object_properties(self, obj, properties)
+
+        def updateObjects(self):
+            update_objects(self)
+
     class PolicySimulator(newtonian.NewtonianSimulator):
         def __init__(self, driver):
             super().__init__()
@@ -242,6 +330,15 @@ def _simulator_class():
             return PolicySimulation(scene, self.network, self.regen_driver, **kwargs)
 
     return PolicySimulator
+
+
+def _compiled_here(prep: Prepared) -> Prepared:
+    """``prep`` with its world's own program compiled (no other program's objects to leave out,
+    no behavior to drop)."""
+    from regen.driving.simulation.run import compile_program
+
+    text = _program(prep.scenario, prep.plans)
+    return dataclasses.replace(prep, compiled=compile_program(text), leave_out=frozenset(), scripted_ego=False)
 
 
 def run_policy(scenario: Scenario | Prepared, policy: Callable, *,
@@ -269,7 +366,14 @@ def run_policy(scenario: Scenario | Prepared, policy: Callable, *,
     try:
         scene, _ = prep.compiled.generate(maxIterations=1, verbosity=0)
     except Exception as exc:
+        if prep.leave_out or prep.scripted_ego:  # another world's program failed: this one's own decides
+            own = _compiled_here(prep)
+            return run_policy(own, policy, step_timeout=step_timeout, steps=steps)
         raise SimulationError(f"Scenic could not place the actors: {type(exc).__name__}: {exc}") from exc
+    if prep.leave_out:  # the simulation binds to the scene's objects as it starts
+        scene.objects = tuple(o for o in scene.objects if o.name not in prep.leave_out)
+    if prep.scripted_ego:  # the scene's own objects: the compiled program keeps its ego's behavior
+        scene.egoObject.behavior = None
     failure: PolicyFailure | None = None
     t0 = time.perf_counter()
     try:
