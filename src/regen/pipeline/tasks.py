@@ -84,7 +84,7 @@ class _Worker:
 
 
 class ProcessTasks:
-    """``workers`` processes of this machine (started on first use), each running one scenario
+    """``workers`` processes of this machine (started at once), each running one scenario
     at a time. A dispatcher
     thread hands tasks to idle workers, collects results, and replaces a worker that died,
     running its scenario once more (:data:`ATTEMPTS`)."""
@@ -102,6 +102,10 @@ class ProcessTasks:
         self._closing = False
         self._thread: threading.Thread | None = None
         self.deaths = 0  # workers that died while running a scenario (a figure for the summary)
+        # forked now, before the caller's threads start drawing or calling models: a child forked
+        # while another thread holds a lock (matplotlib's, logging's) inherits it held and hangs
+        # on its first use (seen: a batch with pictures, a worker forked while the graph was drawn)
+        self._pool = [self._start_worker() for _ in range(workers)]
 
     def submit(self, fn: Callable[..., Any], *args: Any) -> Future:
         fut: Future = Future()
