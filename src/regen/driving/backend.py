@@ -36,7 +36,7 @@ from regen.driving.world.setting import DrivingParams
 from regen.errors import ConfigError, GroundingError
 
 if TYPE_CHECKING:
-    from regen.driving.render.dataset import DrivingDatasetViews
+    from regen.driving.testing.dataset import DrivingDatasetViews
     from regen.llm.client import LLM
 
 log = logging.getLogger(__name__)
@@ -310,7 +310,7 @@ class DrivingBackend(DomainBackend):
 
     def dataset_views(self) -> DrivingDatasetViews:
         """Reaction states, bird's-eye and camera frames, variants simulated again (``regen dataset``)."""
-        from regen.driving.render.dataset import DrivingDatasetViews
+        from regen.driving.testing.dataset import DrivingDatasetViews
 
         return DrivingDatasetViews()
 

@@ -4,7 +4,7 @@ The ego's reaction comes from its template (:mod:`regen.driving.world.egos`), th
 frame from the run's own renderer (:mod:`regen.driving.render.frames`, the map window without the
 caption band, which names the FSM stage reached: the answer), the forward view from
 :mod:`regen.driving.render.camera` (the ``camera`` extra), and a test variant is simulated again
-with its scripted ego through the domain's own stages, as ``regen test`` checks it
+with its scripted ego as ``regen test`` checks it
 (:func:`regen.driving.testing.variants.check_template`).
 """
 
@@ -57,18 +57,10 @@ class DrivingDatasetViews(DatasetViews):
         return out
 
     def resimulate(self, scenario: Scenario) -> tuple[Trace | None, Verdict | None, Scenario, str]:
-        import tempfile
+        from regen.driving.testing.variants import check_template
 
-        from regen import domains
-
-        backend = domains.make(scenario.domain)
-        try:
-            with tempfile.TemporaryDirectory(prefix="regen-variant-") as tmp:
-                sim = backend.simulate(scenario, Path(tmp))
-            verdict, judged = backend.verify(scenario, sim.trace)
-        except Exception as exc:  # as the pipeline's simulate stage: any failure is this variant's
-            return None, None, scenario, f"{type(exc).__name__}: {exc}"
-        return sim.trace, verdict, judged, ""
+        got = check_template(scenario)
+        return got.trace, got.verdict, got.judged or scenario, got.error or ""
 
 
 __all__ = ["DrivingDatasetViews"]
