@@ -86,10 +86,14 @@ def test_kill_9_of_a_worker_retries_its_scenario_and_of_the_batch_loses_nothing(
     assert "the worker process running it died (exit code -9); running that scenario once more" in err
     kept = _verdicts(tmp_path)
     assert kept, "nothing was finished before the kill"
+    killed_leg = json.loads((tmp_path / "out" / "batch.json").read_text())
+    # the killed invocation's wall time up to its last finished scenario is kept, per behavior too
+    assert killed_leg["wall_seconds"] > 1.0 and sum(b["wall_seconds"] for b in killed_leg["behaviors"]) > 1.0
     done = _finish(tmp_path)
     assert done.returncode == 0, done.stderr[-3000:]
     record = json.loads((tmp_path / "out" / "batch.json").read_text())
     assert record["status"] == "done" and [b["status"] for b in record["behaviors"]] == ["done", "done"]
+    assert record["wall_seconds"] > killed_leg["wall_seconds"]  # both invocations counted
     assert all(not b["failed_scenarios"] for b in record["behaviors"])
     after = _verdicts(tmp_path)
     assert len(after) == 3 and {k: after[k] for k in kept} == kept  # finished work kept, not redone

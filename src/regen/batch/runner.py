@@ -60,6 +60,7 @@ BATCH_FILES = (BATCH_FILE, SUMMARY_FILE, REPORT_FILE)
 #: memory) answers one call at a time; a remote provider takes a few
 MODEL_LIMITS = {"local": 1}
 REMOTE_LIMIT = 4
+SAVE_EVERY = 30.0  # [s] batch.json is saved at least this often while behaviors run (wall time kept)
 
 
 class BehaviorRecord(Model):
@@ -153,14 +154,28 @@ class BatchJob:
         self.gates = model_gates(planned)
         self.lock = threading.Lock()
         self.started = time.perf_counter()
+        # wall time is credited to batch.json at every save, so a batch killed with -9 keeps the
+        # time of the invocation up to its last save (the resumed one adds its own)
+        self._mark = self.started
+        self._running: dict[int, float] = {}  # behavior index -> when its time was last credited
 
     def emit(self, kind: str, **data: Any) -> None:
         if self.on_event is not None:
             with self.lock:
                 self.on_event({"t": round(time.perf_counter() - self.started, 3), "event": kind, **data})
+        if kind == "scenario_done":  # finished work is on disk: its wall time goes there too
+            self.save()
 
     def save(self) -> None:
+        """batch.json as it stands, the wall time since the last save credited to the batch and
+        to each running behavior."""
         with self.lock:
+            now = time.perf_counter()
+            self.record.wall_seconds += now - self._mark
+            self._mark = now
+            for i, since in self._running.items():
+                self.record.behaviors[i].wall_seconds += now - since
+                self._running[i] = now
             write_json(self.out / BATCH_FILE, self.record)
 
     def run(self) -> BatchRecord:
@@ -180,6 +195,8 @@ class BatchJob:
                         f.result(timeout=0.5)
                         break
                     except TimeoutError:
+                        if time.perf_counter() - self._mark >= SAVE_EVERY:
+                            self.save()
                         continue
         except KeyboardInterrupt:
             self.interrupts.seen = True  # every behavior stops at its next check, keeping what it has
@@ -197,9 +214,10 @@ class BatchJob:
         if self.interrupts.seen:
             return
         rec.status, rec.message = "running", ""
+        with self.lock:
+            self._running[i] = time.perf_counter()
         self.save()
         self.emit("behavior_started", behavior=rec.folder, text=rec.text)
-        t0 = time.perf_counter()
         gate = self.gates[p.settings.llm.split(":", 1)[0]]
         try:
             job = self.open_job(p, rec, gate)
@@ -222,8 +240,9 @@ class BatchJob:
             rec.status, rec.message = "failed", redact(f"{type(exc).__name__}: {exc}", credentials=False)
             self.emit("behavior_done", behavior=rec.folder, status="failed", message=rec.message)
         finally:
-            rec.wall_seconds += time.perf_counter() - t0
-            self.save()
+            self.save()  # credits this behavior's time up to now
+            with self.lock:
+                self._running.pop(i, None)
 
     def open_job(self, p: PlannedBehavior, rec: BehaviorRecord, gate: threading.Semaphore) -> _Job:
         backend = domains.make(p.behavior.domain)
@@ -249,8 +268,7 @@ class BatchJob:
             rec.message = (f"{len(failed)} behavior(s) failed ({', '.join(failed)}); fix what their message says "
                            "and run the same command again to resume") if failed else ""
         rec.finished = now()
-        rec.wall_seconds += time.perf_counter() - self.started
-        self.save()
+        self.save()  # credits the wall time since the last save
         try:
             write_batch_report(self.out, summarize_batch(self.out))
         except Exception:
