@@ -14,6 +14,10 @@ export CMAKE_ARGS="${CMAKE_ARGS:--DLLAVA_BUILD=OFF -DGGML_NATIVE=OFF -DGGML_AVX=
 [ -d .venv ] || "$PYTHON" -m venv .venv
 .venv/bin/python -m pip install --quiet --upgrade pip
 .venv/bin/python -m pip install --progress-bar off -e ".[all]"
+# VerifAI's samplers (regen falsify): without its declared dependencies, which would downgrade
+# attrs below 23 (breaking trio and selenium) and pandas below 3; the samplers import only what
+# pyproject.toml's falsify extra pins.
+.venv/bin/python -m pip install --quiet --progress-bar off --no-deps verifai==2.2.0
 .venv/bin/regen model prepare
 # The ASAM Quality Checker bundles (the standard's own checkers of the exported .xodr and .xosc)
 # pin other numpy and lxml versions: they get a virtual environment of their own.

@@ -107,9 +107,10 @@ def test_a_domain_needs_only_ground_simulate_render_and_its_words(tmp_path: Path
 
     assert DomainBackend.__abstractmethods__ == {"ground", "simulate", "render"}
     cls = domains.backend_class("aisle")
-    assert not {"importer", "recorder", "property_choices", "policy_harness"} & set(vars(cls))
+    assert not {"importer", "recorder", "property_choices", "policy_harness", "typology"} & set(vars(cls))
     aisle = domains.make("aisle")
     assert aisle.importer() is None and aisle.recorder() is None and aisle.policy_harness() is None
+    assert aisle.typology() is None
     assert aisle.property_choices("worker") is None
     xosc = tmp_path / "s.xosc"
     xosc.write_text("<OpenSCENARIO/>")

@@ -331,6 +331,10 @@ def batch_cmd(
     replay: ReplayOption = False,
     fresh: bool = typer.Option(False, "--fresh", help="Start the batch over: each run's results are removed "
                                "(their model caches are kept)"),
+    fill_coverage: bool = typer.Option(False, "--fill-coverage", help="After the behaviors ran, run one more "
+                                       "scenario per cause that presents a typology class (NHTSA pre-crash, "
+                                       "driving) a behavior does not cover yet and that fits it "
+                                       "(docs/coverage.md); the summary says what the fill added"),
     log: str = typer.Option("rich", "--log", help="Progress on stderr: rich (a live table in a terminal, plain "
                             "lines in a log or pipe), quiet, or jsonl (the events on stdout)"),
 ) -> None:
@@ -347,7 +351,7 @@ def batch_cmd(
         raise ConfigError(f"--log must be rich, quiet or jsonl, not {log!r}")
     with make_batch_progress(log, console=err_console, out=console) as progress, _resumable(out):
         record = run_batch(spec, out_dir, ray=ray, workers=workers, replay=replay, fresh=fresh,
-                           on_event=progress.on_event)
+                           fill_coverage=fill_coverage, on_event=progress.on_event)
     if log != "jsonl":
         print_batch(console, record, out_dir)
     if record.status == "failed":
@@ -382,6 +386,7 @@ def _mount_commands() -> None:
     from regen.dataset.probe_cli import probe_command
     from regen.evaluation.cli import eval_command
     from regen.evaluation.runs_cli import runs_list, runs_show
+    from regen.falsify.cli import falsify_command
     from regen.harness.cli import test_command
     from regen.llm.cli import model_prepare, model_status, model_verify
     from regen.pipeline.import_cli import import_command
@@ -394,10 +399,14 @@ def _mount_commands() -> None:
                                 "matter; each is grounded, simulated and verified.",
                 **help_for("augment"))(friendly(augment_command))
     app.command("eval", help="Diversity (embedding, Self-BLEU), feasibility, controllability, "
-                             "edge-construction accuracy over run folders or text sets.",
+                             "edge-construction accuracy over run folders or text sets; typology "
+                             "coverage (--coverage).",
                 **help_for("eval"))(eval_command)
     app.command("test", help="Run a policy through a run's verified scenarios: pass/fail, "
                              "collisions, tests.json and junit.xml.", **help_for("test"))(test_command)
+    app.command("falsify", help="Search a run's causes (set, remove, add) for what makes a policy fail where "
+                                "the scripted robot copes; minimal findings with replay commands.",
+                **help_for("falsify"))(falsify_command)
     app.command("import", help="Import a scenario file (OpenSCENARIO .xosc for driving): its storyboard "
                                "becomes a scenario with an FSM, simulated and verified.",
                 **help_for("import"))(friendly(import_command))

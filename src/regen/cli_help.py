@@ -71,6 +71,8 @@ EXAMPLES: dict[str, list[str]] = {
              "regen eval example:regen_style_driving example:nhtsa_style --no-embeddings"],
     "test": ["regen test runs/stop --policy idm", "regen test runs/stop --policy my_policy.py:policy --variants 8",
              "regen test runs/stop --policy aeb --adversarial --out results/aeb"],
+    "falsify": ["regen falsify runs/stop --policy idm --budget 24",
+                "regen falsify runs/stop --policy my_policy.py --budget 60 --llm local --out results/falsify"],
     "import": ["regen import scenario.xosc --out runs/imported",
                "regen import scenario.xosc --out runs/imported --domain driving --no-pictures"],
     "dataset": ["regen dataset runs/stop --out datasets/stop",

@@ -12,7 +12,7 @@ runs every registered domain through the whole pipeline the way Gymnasium's ``ch
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
@@ -247,6 +247,82 @@ class DatasetViews(ABC):
         as judged, '' or the error)."""
 
 
+@dataclass(frozen=True)
+class TypologyCause:
+    """A cause text that presents a typology class when the robot shows one of ``fits`` (the
+    domain's own names of robot behaviors, :meth:`Typology.behavior_key`)."""
+
+    text: str
+    fits: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class TypologyClass:
+    """One class of a scenario typology (one of NHTSA's 37 pre-crash scenarios, say)."""
+
+    id: str  # stable, what :meth:`Typology.classify` returns ('lead_vehicle_stopped')
+    number: int  # the typology's own number (27)
+    name: str  # the official name ('Lead vehicle stopped')
+    description: str  # one line: the configuration a scenario must show
+    #: whether the domain's generator can make a scenario of this class at all (False: the
+    #: simulator lacks what it needs; :attr:`note` says what)
+    simulable: bool = True
+    note: str = ""  # why it cannot occur, or what limits it
+    causes: tuple[TypologyCause, ...] = ()  # cause texts that present it (``regen batch --fill-coverage``)
+
+    @property
+    def label(self) -> str:
+        """Number and name, as tables show it ('27 Lead vehicle stopped')."""
+        return f"{self.number} {self.name}"
+
+
+class Typology(ABC):
+    """A standard list of situations a safety team names its tests by (the NHTSA pre-crash
+    typology for driving) and the rules that say which of them a simulated scenario shows
+    (:meth:`DomainBackend.typology`; ``regen eval --coverage``, ``regen batch --fill-coverage``).
+
+    A scenario may show several classes, or none. Rules read the trace (what happened), never the
+    model's text."""
+
+    def __init__(self, name: str, classes: Sequence[TypologyClass], source: str = ""):
+        ids = [c.id for c in classes]
+        if len(set(ids)) != len(ids):
+            raise ValueError(f"typology {name!r}: class ids repeat")
+        self.name, self.source = name, source
+        self.classes: tuple[TypologyClass, ...] = tuple(sorted(classes, key=lambda c: c.number))
+
+    def get(self, class_id: str) -> TypologyClass:
+        """The class of ``class_id``; KeyError naming the known ids."""
+        for c in self.classes:
+            if c.id == class_id:
+                return c
+        raise KeyError(f"no class {class_id!r} in {self.name} (known: {', '.join(c.id for c in self.classes)})")
+
+    @abstractmethod
+    def explain(self, scenario: Scenario, trace: Trace) -> dict[str, list[str]]:
+        """The classes the scenario shows, as class id -> what in the trace shows it (in words,
+        one line per actor or event); empty when none fits."""
+
+    def classify(self, scenario: Scenario, trace: Trace) -> list[str]:
+        """The ids of the classes the scenario shows, in the typology's order; [] when none fits."""
+        found = self.explain(scenario, trace)
+        return [c.id for c in self.classes if c.id in found]
+
+    def behavior_key(self, behavior: Behavior) -> str | None:
+        """The domain's name of the robot behavior ``behavior`` shows (what
+        :attr:`TypologyCause.fits` lists); None when it has none. Default: None."""
+        return None
+
+    def fill_causes(self, behavior: Behavior, class_id: str) -> list[str]:
+        """Cause texts that present the class and fit ``behavior`` (none for a class the domain
+        cannot simulate, or a behavior :meth:`behavior_key` does not name)."""
+        c = self.get(class_id)
+        key = self.behavior_key(behavior)
+        if not c.simulable or key is None:
+            return []
+        return [cause.text for cause in c.causes if key in cause.fits]
+
+
 class DomainBackend(ABC):
     """What a simulation domain provides to the pipeline.
 
@@ -255,7 +331,8 @@ class DomainBackend(ABC):
     ``export``. Only ``ground``, ``simulate`` and ``render`` (and the declarations) are required.
     An optional part that takes more than one method is a capability object the backend returns,
     None when the domain has none: :meth:`policy_harness` (``regen test``), :meth:`importer`
-    (``regen import``), :meth:`recorder` (``regen generate --ego-trajectory``).
+    (``regen import``), :meth:`recorder` (``regen generate --ego-trajectory``), :meth:`typology`
+    (``regen eval --coverage``).
     """
 
     #: The domain's name, as users type it after ``--domain``.
@@ -332,6 +409,11 @@ class DomainBackend(ABC):
 
         raise ConfigError(f"the {self.name} domain writes no robot-learning episodes (--format lerobot)")
 
+    def typology(self) -> Typology | None:
+        """The standard scenario typology of this domain and its rules (:class:`Typology`;
+        ``regen eval --coverage``); None: the domain has none."""
+        return None
+
     def dataset_views(self) -> DatasetViews | None:
         """What ``regen dataset`` draws and reads for this domain (:class:`DatasetViews`); None:
         the domain gives no vision-language-action samples."""
@@ -394,4 +476,5 @@ class DomainBackend(ABC):
 
 
 __all__ = ["ANIMATION", "KEYFRAMES", "ROBOT_ORDERS", "Allowed", "DatasetViews", "DomainBackend", "Importer", "PropertyChoices",
-           "RecordedBehavior", "Recorder", "ReportHints", "SimulationOutput", "Wording"]
+           "RecordedBehavior", "Recorder", "ReportHints", "SimulationOutput", "Typology", "TypologyCause",
+           "TypologyClass", "Wording"]

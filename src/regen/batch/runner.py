@@ -74,6 +74,11 @@ class BehaviorRecord(Model):
     message: str = ""
     failed_scenarios: dict[str, str] = Field(default_factory=dict)  # scenario -> why it has no verdict
     wall_seconds: float = 0.0  # over every invocation
+    #: ``--fill-coverage``: the spec behavior's folder this run adds coverage to, the cause it
+    #: insists on and the typology classes (ids) that cause presents; None for a spec entry
+    fill_of: str | None = None
+    fill_cause: str | None = None
+    fill_classes: list[str] = Field(default_factory=list)
 
 
 class BatchRecord(Model):
@@ -126,6 +131,8 @@ def open_batch(out: Path, spec_file: Path, sha: str, names: list[str], planned: 
     behaviors = [kept.get(n) or BehaviorRecord(folder=n, text=p.behavior.text, domain=p.behavior.domain,
                                                scenarios=p.settings.max_scenarios)
                  for n, p in zip(names, planned, strict=True)]
+    # runs an earlier --fill-coverage made stay recorded (their folders are the batch's own)
+    behaviors += [b for b in (old.behaviors if old else []) if b.fill_of and b.folder not in names]
     return BatchRecord(spec_file=str(spec_file), spec_sha256=sha, started=old.started if old else now(),
                        wall_seconds=old.wall_seconds if old else 0.0, behaviors=behaviors)
 
@@ -147,9 +154,13 @@ class BatchJob:
 
     def __init__(self, out: Path, record: BatchRecord, planned: list[PlannedBehavior], tasks: ScenarioTasks,
                  interrupts: Interrupts, *, replay: bool = False, fresh: bool = False,
-                 on_event: Callable[[dict[str, Any]], None] | None = None):
-        self.out, self.record, self.planned, self.tasks = out, record, planned, tasks
+                 on_event: Callable[[dict[str, Any]], None] | None = None, fill_coverage: bool = False):
+        self.out, self.record, self.tasks = out, record, tasks
+        # the record's behavior i runs planned[i] (fill runs are added to both after the spec's ran;
+        # fill records an earlier invocation made follow the spec's in the record, not run)
+        self.planned = list(planned)
         self.interrupts, self.replay, self.fresh = interrupts, replay, fresh
+        self.fill_coverage = fill_coverage
         self.on_event = on_event
         self.gates = model_gates(planned)
         self.lock = threading.Lock()
@@ -180,15 +191,32 @@ class BatchJob:
 
     def run(self) -> BatchRecord:
         """Every behavior in a thread (model calls gated per provider), their scenarios as tasks;
-        how the batch ended into batch.json, then the summary and report."""
+        with ``fill_coverage``, then the fill runs (:mod:`regen.batch.fill`); how the batch ended
+        into batch.json, then the summary and report."""
         self.record.status, self.record.finished = "running", None
         self.save()
-        self.emit("batch", total=len(self.planned), names=[b.folder for b in self.record.behaviors],
-                  workers=self.tasks.workers)
-        threads = ThreadPoolExecutor(max_workers=min(len(self.planned), 32), thread_name_prefix="regen-behavior")
-        futs: list[Future] = []
+        self.emit("batch", total=len(self.planned), workers=self.tasks.workers,
+                  names=[b.folder for b in self.record.behaviors[:len(self.planned)]])
         try:
-            futs = [threads.submit(self.behavior, i) for i in range(len(self.planned))]
+            self.run_behaviors(range(len(self.planned)))
+            if self.fill_coverage and not self.interrupts.seen:
+                self.run_behaviors(self.add_fill())
+        except KeyboardInterrupt:
+            self.interrupts.seen = True  # every behavior stops at its next check, keeping what it has
+            self.record.status = "interrupted"
+            self.record.message = "interrupted; run the same command again to resume"
+            raise
+        finally:
+            self.end()
+        return self.record
+
+    def run_behaviors(self, indices: range) -> None:
+        """The behaviors ``indices`` of :attr:`planned`, each in a thread, until all ended."""
+        if not indices:
+            return
+        threads = ThreadPoolExecutor(max_workers=min(len(indices), 32), thread_name_prefix="regen-behavior")
+        try:
+            futs: list[Future] = [threads.submit(self.behavior, i) for i in indices]
             for f in futs:
                 while True:
                     try:
@@ -198,15 +226,32 @@ class BatchJob:
                         if time.perf_counter() - self._mark >= SAVE_EVERY:
                             self.save()
                         continue
-        except KeyboardInterrupt:
-            self.interrupts.seen = True  # every behavior stops at its next check, keeping what it has
-            self.record.status = "interrupted"
-            self.record.message = "interrupted; run the same command again to resume"
-            raise
         finally:
             threads.shutdown(wait=True, cancel_futures=True)
-            self.end()
-        return self.record
+
+    def add_fill(self) -> range:
+        """Plan the fill runs of the behaviors that are done (:func:`~regen.batch.fill.plan_fill`),
+        add them to :attr:`planned` and the record (a fill record kept from an earlier invocation
+        is reused, wall time and all) and return their indices."""
+        from regen.batch.fill import plan_fill
+
+        n = len(self.planned)
+        spec = self.record.behaviors[:n]
+        done = {b.folder for b in spec if b.status == "done"}
+        fills = plan_fill(self.out, self.planned, [b.folder for b in spec], done)
+        kept = {b.folder: b for b in self.record.behaviors[n:]}
+        added = []
+        for fill, p in fills:
+            rec = kept.pop(fill.folder, None) or BehaviorRecord(
+                folder=fill.folder, text=p.behavior.text, domain=p.behavior.domain, scenarios=1)
+            rec.fill_of, rec.fill_cause, rec.fill_classes = fill.fill_of, fill.cause, fill.classes
+            added.append(rec)
+            self.planned.append(p)
+        with self.lock:
+            self.record.behaviors = spec + added + list(kept.values())
+        self.save()
+        self.emit("fill", runs=[r.folder for r in added])
+        return range(n, n + len(added))
 
     def behavior(self, i: int) -> None:
         """One behavior's main job, start to end; its failure is its own (the others go on)."""
@@ -306,7 +351,7 @@ def make_tasks(ray: str | None, workers: int | None) -> ScenarioTasks:
 
 
 def run_batch(spec_file: str | Path, out: str | Path, *, ray: str | None = None, workers: int | None = None,
-              replay: bool = False, fresh: bool = False,
+              replay: bool = False, fresh: bool = False, fill_coverage: bool = False,
               on_event: Callable[[dict[str, Any]], None] | None = None) -> BatchRecord:
     """Run (or resume) the batch of ``spec_file`` into ``out``: every entry checked before
     anything runs (:func:`~regen.batch.spec.plan`), then :class:`BatchJob`.
@@ -318,6 +363,8 @@ def run_batch(spec_file: str | Path, out: str | Path, *, ray: str | None = None,
         workers: processes (or, with Ray, the CPUs of a local cluster 'auto' starts).
         replay: forbid model calls; every answer must be in the run folders' caches.
         fresh: start over (each run folder's model cache is kept).
+        fill_coverage: after the spec's behaviors, run one scenario per cause that presents a
+            typology class a behavior does not cover yet (:mod:`regen.batch.fill`).
         on_event: progress events, each with the behavior's folder where it has one.
     """
     spec_path = Path(spec_file)
@@ -335,7 +382,7 @@ def run_batch(spec_file: str | Path, out: str | Path, *, ray: str | None = None,
     try:
         with Interrupts() as interrupts:
             return BatchJob(out_dir, record, planned, tasks, interrupts, replay=replay, fresh=fresh,
-                            on_event=on_event).run()
+                            on_event=on_event, fill_coverage=fill_coverage).run()
     finally:
         with contextlib.suppress(Exception):
             tasks.close(cancel=True)

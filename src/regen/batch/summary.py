@@ -29,6 +29,7 @@ from typing import Any
 from pydantic import Field
 
 from regen.batch.diversity import METRICS, Diversity, Encoder, batch_diversity
+from regen.batch.fill import FillSummary, fill_summary
 from regen.core.base import Model
 from regen.core.io import atomic_write_text, write_json
 from regen.core.verdict import FEASIBLE_STATUSES
@@ -102,6 +103,11 @@ class BehaviorSummary(Model):
     usage: dict[str, int | float] = Field(default_factory=dict)  # model usage totals (run.json)
     tests: list[PolicyTests] = Field(default_factory=list)  # empty: no policy tests ran
     missing: list[str] = Field(default_factory=list)  # what is not on disk (yet), in words
+    #: a ``--fill-coverage`` run: the spec behavior's folder it fills, its cause, the typology
+    #: classes (ids) it aims at; None for a spec entry
+    fill_of: str | None = None
+    fill_cause: str | None = None
+    fill_classes: list[str] = Field(default_factory=list)
 
 
 class Totals(Model):
@@ -139,6 +145,9 @@ class BatchSummary(Model):
     behaviors: list[BehaviorSummary] = Field(default_factory=list)
     totals: Totals = Field(default_factory=Totals)
     diversity: Diversity = Field(default_factory=Diversity)
+    #: ``--fill-coverage``: per spec behavior with fill runs, the typology classes covered
+    #: before and after, and what each fill run showed
+    fill: list[FillSummary] = Field(default_factory=list)
 
 
 # --- reading ---------------------------------------------------------------------------------
@@ -197,7 +206,10 @@ def _from_entry(number: int, entry: dict[str, Any]) -> BehaviorSummary:
         wall_seconds=_num(entry.get("wall_seconds")),
         failed_scenarios=[FailedScenario(folder=str(k), reason=_str(v, str(v)))
                           for k, v in failed.items()] if isinstance(failed, dict) else [],
-        lost=len(failed) if isinstance(failed, dict) else 0)
+        lost=len(failed) if isinstance(failed, dict) else 0,
+        fill_of=_str(entry.get("fill_of")) or None, fill_cause=_str(entry.get("fill_cause")) or None,
+        fill_classes=[str(c) for c in entry.get("fill_classes") or [] if isinstance(c, str)]
+        if isinstance(entry.get("fill_classes"), list) else [])
 
 
 def _read_manifest(run_dir: Path, b: BehaviorSummary) -> None:
@@ -325,13 +337,16 @@ def summarize(batch_dir: Path, *, embeddings: bool = True, encoder: Encoder | No
     batch_dir = _batch_folder(batch_dir)
     out = BatchSummary()
     texts: dict[str, list[str]] = {}
-    for number, entry in enumerate(_read_batch(batch_dir, out), start=1):
+    entries = _read_batch(batch_dir, out)
+    for number, entry in enumerate(entries, start=1):
         b, feasible_texts = summarize_behavior(batch_dir, number, entry)
         out.behaviors.append(b)
         if feasible_texts:
             texts.setdefault(b.domain or "unknown", []).extend(feasible_texts)
     out.totals = _totals(out.behaviors)
     out.diversity = batch_diversity(texts, embeddings=embeddings, encoder=encoder)
+    if any(b.fill_of for b in out.behaviors):
+        out.fill = fill_summary(batch_dir, entries)
     return out
 
 

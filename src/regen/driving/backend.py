@@ -37,6 +37,7 @@ from regen.errors import ConfigError, GroundingError
 
 if TYPE_CHECKING:
     from regen.driving.testing.dataset import DrivingDatasetViews
+    from regen.driving.verify.typology import DrivingTypology
     from regen.llm.client import LLM
 
 log = logging.getLogger(__name__)
@@ -307,6 +308,13 @@ class DrivingBackend(DomainBackend):
         if notes:
             scenario = scenario.model_copy(update={"fallbacks": [*notes, *scenario.fallbacks]})
         return scenario
+
+    def typology(self) -> DrivingTypology:
+        """The NHTSA pre-crash typology's 37 classes and the rules that read them off a trace
+        (:mod:`regen.driving.verify.typology`, ``regen eval --coverage``)."""
+        from regen.driving.verify.typology import typology
+
+        return typology()
 
     def dataset_views(self) -> DrivingDatasetViews:
         """Reaction states, bird's-eye and camera frames, variants simulated again (``regen dataset``)."""

@@ -61,17 +61,26 @@ def eval_command(
              "bundled sets): runs each insisted cause through the main job with --llm "
              "into --out (resumable) and reports entity and key-state accuracy and "
              "verified-but-unfaithful scenarios, per split")] = None,
+    coverage: Annotated[bool, typer.Option(
+        "--coverage",
+        help="Typology coverage of the SOURCE run folders (or batch and falsify folders): per behavior, "
+             "which NHTSA pre-crash classes (driving) their verified scenarios show, how often, and "
+             "which not; with --out, coverage.json and coverage.png (docs/coverage.md)")] = False,
 ) -> None:
-    """Diversity (embedding and Self-BLEU), feasibility, controllability, edge accuracy and
-    entity fidelity."""
+    """Diversity (embedding and Self-BLEU), feasibility, controllability, edge accuracy, entity
+    fidelity and typology coverage."""
     console = Console(soft_wrap=True)  # a path is printed whole on one line, in a terminal or a CI log
     try:  # typer would turn an empty --out into Path(""), the current folder
         out = None if out_text is None else out_folder(out_text)
         if out is not None and not list_examples:  # a file in its place is told before any work
             output_folder(out, give="a folder for " + ("the fidelity runs" if fidelity is not None
+                                                       else "coverage.json and coverage.png" if coverage
                                                        else "eval.json and the plots"))
     except RegenError as exc:
         raise _exit(exc) from None
+    if coverage:
+        _coverage(sources or [], out, console)
+        return
     if fidelity is not None:
         _fidelity(fidelity, out, llm, console)
         return
@@ -133,6 +142,27 @@ def _fidelity(source: str, out: Path | None, llm: str, console: Console) -> None
     console.print(t)
     (out / "fidelity_table.json").write_text(json.dumps(rows, indent=2) + "\n", encoding="utf-8")
     console.print(f"per case: {shown(out / 'fidelity.jsonl')}")
+
+
+def _coverage(sources: list[str], out: Path | None, console: Console) -> None:
+    from regen.evaluation.coverage import COVERAGE_JSON, COVERAGE_PNG, coverage, print_coverage
+
+    if not sources:
+        raise _exit(ConfigError("--coverage needs run folders: regen eval --coverage RUN [RUN...] "
+                                "(a batch folder counts each of its runs)"))
+    try:
+        with console.status("coverage") as status:
+            report = coverage(sources, out_dir=out, progress=lambda msg: status.update(shown(msg)))
+    except RegenError as exc:
+        raise _exit(exc) from None
+    print_coverage(report, console)
+    if not report.typologies:
+        console.print("[yellow]no behavior of a domain with a scenario typology: nothing was counted[/yellow]")
+    if out is not None:
+        written = [f for f in (COVERAGE_JSON, COVERAGE_PNG) if (out / f).is_file()]
+        console.print(f"wrote {', '.join(shown(out / f) for f in written)}")
+    else:
+        console.print("[dim]give --out FOLDER to write coverage.json and coverage.png[/dim]")
 
 
 def make_app() -> typer.Typer:

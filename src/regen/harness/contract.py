@@ -11,7 +11,9 @@ The harness owns the simulator side: how a policy replaces the robot in a scenar
 (:meth:`prepare`, :meth:`run_policy`), its observation and action types (documented by the
 built-in policies), what counts as a failure besides the FSM (:meth:`incidents`: collisions,
 infractions, displaced objects, a time budget), the feasible set its variants are drawn from
-(:meth:`sample_variants`) and how the scripted robot fares in a variant (:meth:`check_template`).
+(:meth:`sample_variants`) and how the scripted robot fares in a variant (:meth:`check_template`);
+optionally, the feasible point nearest to given targets (:meth:`parameter_keys`,
+:meth:`variant_near`), which ``regen falsify``'s parameter search asks for.
 """
 
 from __future__ import annotations
@@ -79,6 +81,11 @@ def wire_numbers(data: Any, sizes: tuple[int, ...]) -> list[float]:
     if not all(math.isfinite(v) for v in out):
         raise ValueError(f"the action is not finite: {out}")
     return out
+
+
+class NoParameterSearch(NotImplementedError):
+    """A harness without :meth:`PolicyHarness.parameter_keys` and
+    :meth:`PolicyHarness.variant_near`: its scenarios' feasible sets cannot be searched."""
 
 
 class PolicyHarness(ABC):
@@ -166,10 +173,25 @@ class PolicyHarness(ABC):
     def check_template(self, scenario: Scenario) -> TemplateRun:
         """The scripted robot simulated and verified in a variant."""
 
+    def parameter_keys(self, scenario: Scenario) -> list[tuple[str, str]]:
+        """The (entity, parameter) axes a parameter search may move in the scenario, in a fixed
+        order (``regen falsify``'s parameter stage samples one unit-box target per key). By
+        default the harness has no parameter search: :class:`NoParameterSearch`."""
+        raise NoParameterSearch(f"the {type(self).__name__} has no parameter search")
+
+    def variant_near(self, scenario: Scenario, targets: Mapping[tuple[str, str], float], seed: int
+                     ) -> Scenario | None:
+        """The point of the scenario's feasible set nearest to ``targets`` (per key of
+        :meth:`parameter_keys`, a share in [0, 1] of a span the harness documents: 0 one end,
+        1 the other), as a scenario that differs only in its parameters; a key without a target
+        stays near its grounded value. None when no feasible point is found. Deterministic for
+        ``seed``. By default the harness has no parameter search: :class:`NoParameterSearch`."""
+        raise NoParameterSearch(f"the {type(self).__name__} has no parameter search")
+
     def failure_picture(self, scenario: Scenario, episode: Episode, prepared: Any, case: Any,
                         policy: str, out: Path) -> Path | None:
         """A picture of a failed episode written at ``out`` (a GIF), or None."""
         return None
 
 
-__all__ = ["Episode", "Incident", "Policy", "PolicyHarness", "TemplateRun", "wire_numbers"]
+__all__ = ["Episode", "Incident", "NoParameterSearch", "Policy", "PolicyHarness", "TemplateRun", "wire_numbers"]

@@ -179,6 +179,7 @@ class RunView:
     stray: list[str] = field(default_factory=list)  # run.json names with no usable folder
     tests: BehaviorTests | None = None  # regen test's results (RUN/tests/), None: none run
     whatifs: list[Any] = field(default_factory=list)  # regen whatif's counterfactuals (RUN/whatif/)
+    falsify: list[Any] = field(default_factory=list)  # regen falsify's searches (RUN/falsify/)
 
     @property
     def summary(self) -> Summary:
@@ -307,4 +308,7 @@ def load_run(run_dir: Path, manifest: dict[str, Any] | None = None) -> RunView:
     from regen.report.whatif_view import load_whatifs
 
     view.whatifs = load_whatifs(run.path, {s.folder: s.anchor for s in view.scenarios})
+    from regen.report.falsify_view import load_falsify
+
+    view.falsify = load_falsify(run.path, {s.folder: (s.anchor, s.number) for s in view.scenarios})
     return view

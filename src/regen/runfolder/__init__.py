@@ -25,6 +25,7 @@ from regen.runfolder.run import (
     RunFolder,
     behavior_test_name,
     list_runs,
+    read_falsify,
     read_graph,
     read_summary,
     read_tests,
@@ -33,4 +34,4 @@ from regen.runfolder.scenario import ScenarioFolder
 
 __all__ = ["MAX_JSON_BYTES", "MAX_TEXT_CHARS", "Loaded", "RunFolder", "RunManifest", "RunSettings",
            "ScenarioFolder", "behavior_test_name", "list_runs", "merge_usage", "now",
-           "read_graph", "read_json", "read_model", "read_summary", "read_tests", "read_text"]
+           "read_falsify", "read_graph", "read_json", "read_model", "read_summary", "read_tests", "read_text"]

@@ -9,8 +9,9 @@ Anything else in the folder (a user's ``notes.txt``, a ``scenarios/mywork/`` sub
 ``scenarios/01-.../my_notes.txt``, another tool's ``run.json``) is not the run's: ``--fresh``
 then removes nothing and names what it found (:func:`regen.promises.folders.foreign_error`),
 so that the user moves it or chooses another folder. Kept as they are: the model cache, the
-lock, ``tests/`` (``regen test``'s results) and the counterfactuals ``regen whatif`` and
-``regen augment`` wrote into the run (``whatif/``, ``augment/``).
+lock, ``tests/`` (``regen test``'s results), the counterfactuals ``regen whatif`` and
+``regen augment`` wrote into the run (``whatif/``, ``augment/``) and ``regen falsify``'s search
+(``falsify/``).
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
 """``RUN/``: the run folder (:class:`RunFolder`): its manifest, graph, model cache, events, report
 and scenario folders; opening it for writing (a lock, and a resume only with the settings that
 made the run); and the readers of what a finished or half-finished run holds (:func:`list_runs`,
-:func:`read_summary`, :func:`read_graph`, :func:`read_tests`), which never raise for a missing or
-broken file."""
+:func:`read_summary`, :func:`read_graph`, :func:`read_tests`, :func:`read_falsify`), which never
+raise for a missing or broken file."""
 
 from __future__ import annotations
 
@@ -161,11 +161,13 @@ class RunFolder:
                                             REPORT)
     WHATIF = "whatif"  # regen whatif: RUN/whatif/<scenario>-whatif-<hash>/ and its model cache
     AUGMENT = "augment"  # regen augment: RUN/augment/<scenario>-augment/ and its model cache
+    FALSIFY = "falsify"  # regen falsify: RUN/falsify/<policy>/falsify.json and its candidates
+    FALSIFY_JSON = "falsify.json"
     #: Top-level entries a run keeps over ``--fresh``: the lock, the model cache (answers are keyed
     #: by model and prompt, so they stay valid), and other commands' results in the run:
-    #: ``regen test``'s, ``regen whatif``'s and ``regen augment``'s.
+    #: ``regen test``'s, ``regen whatif``'s, ``regen augment``'s and ``regen falsify``'s.
     KEPT: ClassVar[tuple[str, ...]] = (LOCK, CACHE, f"{CACHE}-wal", f"{CACHE}-shm", f"{CACHE}-journal",
-                                       TESTS, WHATIF, AUGMENT)
+                                       TESTS, WHATIF, AUGMENT, FALSIFY)
 
     def clear(self) -> None:
         """Remove the run's results for a fresh start: only what a run wrote, and nothing at
@@ -258,6 +260,23 @@ def read_tests(run: Path) -> dict[str, Loaded]:
     return out
 
 
+def read_falsify(run: Path) -> dict[str, Loaded]:
+    """Falsification results of a run (``regen falsify``): policy folder name -> its
+    ``falsify/<policy>/falsify.json`` as a JSON object, sorted by name; a broken file gives a
+    problem, never an exception."""
+    base = Path(run) / RunFolder.FALSIFY
+    try:
+        found = sorted(p for p in base.iterdir() if (p / RunFolder.FALSIFY_JSON).exists())
+    except OSError:  # no falsify/ folder (or an unreadable one): no falsification
+        return {}
+    out = {}
+    for p in found:
+        got = read_json(p / RunFolder.FALSIFY_JSON)
+        out[p.name] = got if not got.ok or isinstance(got.value, dict) else Loaded(
+            problem="unreadable: not a JSON object")
+    return out
+
+
 def behavior_test_name(scenario: str, variant: int | str) -> str:
     """The name of one behavior test's files beside tests.json (its result in
     ``RunFolder.TEST_CASES``, its failure pictures): ``<scenario>-v<variant>``."""
@@ -265,4 +284,5 @@ def behavior_test_name(scenario: str, variant: int | str) -> str:
 
 
 
-__all__ = ["RunFolder", "behavior_test_name", "list_runs", "read_graph", "read_summary", "read_tests"]
+__all__ = ["RunFolder", "behavior_test_name", "list_runs", "read_falsify", "read_graph", "read_summary",
+           "read_tests"]

@@ -135,6 +135,22 @@ def test_extreme_variants_sit_elsewhere(harness, pet_in_reach):
     assert plain.parameters != far.parameters
 
 
+def test_variant_near_puts_the_objects_toward_the_room_edges_asked_for(harness, pet_in_reach):
+    keys = harness.parameter_keys(pet_in_reach)
+    assert keys == [("pet1", "x"), ("pet1", "y"), ("book1", "x"), ("book1", "y")]
+    low, high = (harness.variant_near(pet_in_reach, {k: u for k in keys}, 0) for u in (0.0, 1.0))
+    for name in ("pet1", "book1"):
+        grounded, lo, hi = (v.parameters[name] for v in (pet_in_reach, low, high))
+        assert lo["x"] <= grounded["x"] <= hi["x"] and lo["y"] <= grounded["y"] <= hi["y"]
+        assert (lo["x"], lo["y"]) != (hi["x"], hi["y"])
+        assert lo["relation"] == hi["relation"] == grounded["relation"]  # the relation holds, the point moves
+    only_pet = harness.variant_near(pet_in_reach, {("pet1", "x"): 0.0}, 0)
+    assert only_pet.parameters["pet1"]["x"] < pet_in_reach.parameters["pet1"]["x"]
+    assert only_pet.parameters["book1"] == pet_in_reach.parameters["book1"]  # no target: where it stood
+    with pytest.raises(KeyError, match="pet1.z"):
+        harness.variant_near(pet_in_reach, {("pet1", "z"): 0.5}, 0)
+
+
 def test_load_policy_specs(tmp_path):
     f = tmp_path / "mine.py"
     f.write_text("def policy(obs):\n    return (0.0, 0.0, 0.01, 0.0)\n\nclass Up:\n"

@@ -11,6 +11,7 @@ template's manner dropped (:data:`MANNER`).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -55,6 +56,8 @@ class DrivingHarness(PolicyHarness):
 
     def __init__(self) -> None:
         self._last: tuple[int, SafetyReport] | None = None  # judge asks twice of one trace
+        # a parameter search asks for many variants of one scenario: its feasible set is built once
+        self._feasible: tuple[str, variants.FeasibleSet | None] | None = None
 
     def _analysis(self, trace: Trace) -> SafetyReport:
         if self._last is None or self._last[0] != id(trace):
@@ -99,6 +102,27 @@ class DrivingHarness(PolicyHarness):
 
     def check_template(self, scenario: Scenario) -> TemplateRun:
         return variants.check_template(scenario)
+
+    def _feasible_set(self, scenario: Scenario) -> variants.FeasibleSet | None:
+        # the placement model depends on everything but the solved parameters
+        key = scenario.model_dump_json(exclude={"parameters", "solver"})
+        if self._feasible is None or self._feasible[0] != key:
+            self._feasible = (key, variants.feasible_set(scenario))
+        return self._feasible[1]
+
+    def parameter_keys(self, scenario: Scenario) -> list[tuple[str, str]]:
+        """Every actor's solved ``s``, ``v``, ``t``, ``d0`` whose feasible range is not a single
+        value (:func:`regen.driving.testing.variants.free_parameters`); none when the rebuilt
+        placement model is infeasible."""
+        fs = self._feasible_set(scenario)
+        return [] if fs is None else variants.free_parameters(fs)
+
+    def variant_near(self, scenario: Scenario, targets: Mapping[tuple[str, str], float], seed: int
+                     ) -> Scenario | None:
+        """:func:`regen.driving.testing.variants.variant_near`: a target 0 is the parameter's
+        lowest feasible value, 1 its highest."""
+        fs = self._feasible_set(scenario)
+        return None if fs is None else variants.variant_near(scenario, dict(targets), seed, fs=fs)
 
     def failure_picture(self, scenario: Scenario, episode: Episode, prepared: Any, case: Any,
                         policy: str, out: Path) -> Path | None:

@@ -8,7 +8,9 @@ gets a seeded random target inside its feasible range and CP-SAT finds the feasi
 nearest to the targets that stands apart from every earlier variant (by a tenth of some
 parameter's range where the feasible set allows, else by one model unit). ``extremes=True`` (the adversarial
 search, :mod:`regen.driving.testing.adversarial`) puts the targets of trigger times and speeds at the
-ends of their ranges, where a policy under test is most likely to fail.
+ends of their ranges, where a policy under test is most likely to fail. :func:`variant_near` is
+the same solve for targets given as shares of each range (the parameter search of
+``regen falsify`` asks for them).
 
 The model is an approximation of the simulation, so a variant is a test only when the scripted
 template ego still verifies in it: :func:`check_template` runs the backend's own simulate and
@@ -42,7 +44,7 @@ Key = tuple[str, str]  # (actor, parameter)
 
 
 @dataclass
-class _Feasible:
+class FeasibleSet:
     """The rebuilt placement model's ingredients and each parameter's feasible range [model units]."""
 
     template: Any  # regen.driving.world.egos.EgoTemplate
@@ -58,7 +60,7 @@ def _actors(scenario: Scenario) -> tuple[Any, list[Any]]:
     return template_of(scenario), [actor_spec(r, db) for r in roles_of(scenario)]
 
 
-def _model(fs: _Feasible) -> tuple[Any, dict[Key, Any]]:
+def _model(fs: FeasibleSet) -> tuple[Any, dict[Key, Any]]:
     """A fresh model with every named constraint required, and its solved parameters by key."""
     from regen.driving.grounding.placement import SOLVED, placement_model
 
@@ -77,10 +79,12 @@ def _solve(M: Any, seed: int) -> tuple[bool, Any]:
     return status in (M.cp.OPTIMAL, M.cp.FEASIBLE), solver
 
 
-def _feasible(scenario: Scenario) -> _Feasible | None:
-    """The scenario's model with each parameter's range; None when it is infeasible."""
+def feasible_set(scenario: Scenario) -> FeasibleSet | None:
+    """The scenario's rebuilt placement model with each parameter's feasible range (two solves
+    per parameter: worth keeping for several :func:`variant_near` calls); None when the rebuilt
+    model is infeasible."""
     template, actors = _actors(scenario)
-    fs = _Feasible(template=template, actors=actors)
+    fs = FeasibleSet(template=template, actors=actors)
     M, keys = _model(fs)
     for key, var in sorted(keys.items()):
         ends = []
@@ -105,7 +109,7 @@ def _seed(*parts: object) -> int:
     return int.from_bytes(hashlib.sha256(":".join(map(str, parts)).encode()).digest()[:8], "big")
 
 
-def _targets(fs: _Feasible, rng: random.Random, extremes: bool) -> dict[Key, int]:
+def _targets(fs: FeasibleSet, rng: random.Random, extremes: bool) -> dict[Key, int]:
     out = {}
     for key, (lo, hi) in sorted(fs.bounds.items()):
         if extremes and key[1] in EXTREME:
@@ -115,7 +119,7 @@ def _targets(fs: _Feasible, rng: random.Random, extremes: bool) -> dict[Key, int
     return out
 
 
-def _nearest(fs: _Feasible, targets: dict[Key, int], avoid: list[dict[Key, int]], seed: int,
+def _nearest(fs: FeasibleSet, targets: dict[Key, int], avoid: list[dict[Key, int]], seed: int,
              separation: float) -> dict[str, dict[str, float]] | None:
     """The feasible point nearest to ``targets`` (each distance weighted by 1 / its range)
     that differs from every point of ``avoid`` in at least one parameter by ``separation`` of
@@ -155,7 +159,7 @@ def sample_parameters(scenario: Scenario, n: int, seed: int = 0, *,
     grounded = {a: dict(p) for a, p in scenario.parameters.items()}
     if n <= 1:
         return [grounded]
-    fs = _feasible(scenario)
+    fs = feasible_set(scenario)
     if fs is None:
         log.warning("%s: the rebuilt placement model is infeasible; no variants", scenario.id)
         return [grounded]
@@ -184,10 +188,41 @@ def sample_variants(scenario: Scenario, n: int, seed: int = 0, *, extremes: bool
             for k, p in enumerate(sample_parameters(scenario, n, seed, extremes=extremes))]
 
 
+def free_parameters(fs: FeasibleSet) -> list[Key]:
+    """The (actor, parameter) keys whose feasible range is wider than one model unit's point,
+    sorted: the axes of a parameter search."""
+    return [key for key, (lo, hi) in sorted(fs.bounds.items()) if hi > lo]
+
+
+def variant_near(scenario: Scenario, targets: dict[Key, float], seed: int = 0, *,
+                 fs: FeasibleSet | None = None) -> Scenario | None:
+    """The feasible variant nearest to ``targets``: each key's share of its feasible range (0: its
+    lowest feasible value, 1: its highest), each distance weighted by 1 / the range as in
+    :func:`sample_parameters`; a free parameter without a target is drawn to its grounded value.
+    Only ``parameters`` differ from ``scenario``. None when the rebuilt model is infeasible.
+    ``fs``: :func:`feasible_set` of the scenario, when already built."""
+    fs = fs if fs is not None else feasible_set(scenario)
+    if fs is None:
+        return None
+    grounded = {a: dict(p) for a, p in scenario.parameters.items()}
+    _, keys = _model(fs)
+    goals = _as_ints(grounded, keys)
+    for key, share in targets.items():
+        if key not in fs.bounds:
+            raise KeyError(f"{key[0]}.{key[1]} is not a parameter of scenario {scenario.id}")
+        lo, hi = fs.bounds[key]
+        goals[key] = lo + int(round(min(1.0, max(0.0, float(share))) * (hi - lo)))
+    point = _nearest(fs, goals, [], seed, 0.0)
+    if point is None:
+        return None
+    params = {a: {**grounded.get(a, {}), **p} for a, p in point.items()}
+    return scenario.model_copy(update={"parameters": params}, deep=True)
+
+
 def feasible_with(scenario: Scenario, params: dict[str, dict[str, float]]) -> bool:
     """Whether ``params`` satisfy every named constraint of the scenario's placement model."""
     template, actors = _actors(scenario)
-    M, keys = _model(_Feasible(template=template, actors=actors))
+    M, keys = _model(FeasibleSet(template=template, actors=actors))
     for key, value in _as_ints(params, keys).items():
         M.m.Add(keys[key] == value)
     return _solve(M, 0)[0]
@@ -214,5 +249,5 @@ def check_template(scenario: Scenario) -> TemplateRun:
     return TemplateRun(verdict=verdict, trace=sim.trace, judged=judged, collisions=ego_collisions(sim.trace))
 
 
-__all__ = ["TemplateRun", "check_template", "ego_collisions", "feasible_with", "sample_parameters",
-           "sample_variants"]
+__all__ = ["FeasibleSet", "TemplateRun", "check_template", "ego_collisions", "feasible_set", "feasible_with",
+           "free_parameters", "sample_parameters", "sample_variants", "variant_near"]

@@ -18,6 +18,7 @@ Oracle (what a policy must bring about and must not do):
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -128,6 +129,16 @@ class ManipulationHarness(PolicyHarness):
             return TemplateRun(verdict=None, judged=scenario, error=f"{type(exc).__name__}: {exc}")
         hits = [i.message for i in _collisions(scenario, trace)]
         return TemplateRun(verdict=verdict, trace=trace, judged=judged, collisions=hits)
+
+    def parameter_keys(self, scenario: Scenario) -> list[tuple[str, str]]:
+        """Each context object's ``x`` and ``y`` (:func:`regen.manipulation.testing.variants.parameter_keys`)."""
+        return variants.parameter_keys(scenario)
+
+    def variant_near(self, scenario: Scenario, targets: Mapping[tuple[str, str], float], seed: int
+                     ) -> Scenario | None:
+        """:func:`regen.manipulation.testing.variants.variant_near`: a target 0 is the room's low
+        edge along that axis, 1 its high edge."""
+        return variants.variant_near(scenario, dict(targets), seed)
 
     def failure_picture(self, scenario: Scenario, episode: Episode, prepared: Any, case: Any,
                         policy: str, out: Path) -> Path | None:

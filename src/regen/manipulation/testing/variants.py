@@ -8,6 +8,8 @@ solution only when some object stands at least :data:`SEPARATION` away from wher
 every earlier variant. ``extremes=True`` puts the preferred spots at the room's corners, so the
 objects go to the edges of their feasible regions. Only the context objects' ``x``, ``y``,
 ``z`` (and ``dynamic``, ``support``) change; the task furniture and item stay as grounded.
+:func:`variant_near` is the same solve with preferred spots given as shares of the room's floor
+(the parameter search of ``regen falsify`` asks for them).
 """
 
 from __future__ import annotations
@@ -50,6 +52,15 @@ def placement_requests(scenario: Scenario) -> tuple[list[Request], object]:
     return requests, scene_geometry(behavior, target, item_box)
 
 
+def _placed(scenario: Scenario, placed: dict) -> Scenario:
+    """The scenario with its context objects where a solve ``placed`` them."""
+    params = {a: dict(v) for a, v in scenario.parameters.items()}
+    for name, p in placed.items():
+        params[name].update(x=round(p.x, 3), y=round(p.y, 3), z=round(p.z, 3), dynamic=p.dynamic,
+                            support=p.support)
+    return scenario.model_copy(update={"parameters": params}, deep=True)
+
+
 def _apart(point: dict[str, tuple[float, float]], seen: list[dict[str, tuple[float, float]]]) -> bool:
     return all(any(max(abs(x - old[n][0]), abs(y - old[n][1])) >= SEPARATION - 1e-9
                    for n, (x, y) in point.items() if n in old) for old in seen)
@@ -80,14 +91,47 @@ def sample_variants(scenario: Scenario, n: int, seed: int = 0, *, extremes: bool
         if not _apart(point, seen):
             continue
         seen.append(point)
-        params = {a: dict(v) for a, v in scenario.parameters.items()}
-        for name, p in res.placed.items():
-            params[name].update(x=round(p.x, 3), y=round(p.y, 3), z=round(p.z, 3), dynamic=p.dynamic,
-                                support=p.support)
-        out.append(scenario.model_copy(update={"parameters": params}, deep=True))
+        out.append(_placed(scenario, res.placed))
     if len(out) < n:
         log.info("%s: %d distinct placements found of %d asked", scenario.id, len(out), n)
     return out
 
 
-__all__ = ["SEPARATION", "placement_requests", "sample_variants"]
+def parameter_keys(scenario: Scenario) -> list[tuple[str, str]]:
+    """Each context object's ``x`` and ``y``, in the scenario's order: what
+    :func:`variant_near` takes targets for."""
+    requests, _ = placement_requests(scenario)
+    return [(r.name, axis) for r in requests for axis in ("x", "y")]
+
+
+def _spot(scenario: Scenario, targets: dict[tuple[str, str], float], name: str, axis: int) -> float:
+    """The room coordinate [m] a unit target asks for along ``axis`` (0: x, 1: y), else where the
+    object stands."""
+    share = targets.get((name, "xy"[axis]))
+    if share is None:
+        return float(scenario.parameters[name]["xy"[axis]])
+    return ROOM.lo[axis] + min(1.0, max(0.0, float(share))) * (ROOM.hi[axis] - ROOM.lo[axis])
+
+
+def variant_near(scenario: Scenario, targets: dict[tuple[str, str], float], seed: int = 0) -> Scenario | None:
+    """The feasible placement nearest to ``targets``: each object's ``x`` and ``y`` as shares of
+    the room's floor (:data:`~regen.manipulation.grounding.placement.ROOM`: 0 its low edge, 1
+    its high edge), the object's grounded coordinate where a target is missing; the same solve
+    as :func:`sample_variants` with these preferred spots, every relation required. None when no
+    placement satisfies them (or the scenario places nothing)."""
+    requests, geometry = placement_requests(scenario)
+    if not requests:
+        return None
+    known = {r.name for r in requests}
+    unknown = sorted(f"{a}.{k}" for a, k in targets if a not in known or k not in ("x", "y"))
+    if unknown:
+        raise KeyError(f"not placement parameters of scenario {scenario.id}: {', '.join(unknown)}")
+    spots = {r.name: (_spot(scenario, targets, r.name, 0), _spot(scenario, targets, r.name, 1))
+             for r in requests}
+    res = solve_placement(requests, geometry, seed=seed % 2**31, time_limit=SOLVE_TIME, spots=spots)
+    if res.status not in ("optimal", "feasible"):
+        return None
+    return _placed(scenario, res.placed)
+
+
+__all__ = ["SEPARATION", "parameter_keys", "placement_requests", "sample_variants", "variant_near"]
