@@ -42,17 +42,30 @@ def driving_run(tmp_path_factory, _falsify_cache) -> Path:
     return run
 
 
-@pytest.fixture(scope="session")
-def searched(driving_run, tmp_path_factory, _falsify_cache):
-    """``regen falsify`` of constant-speed over the driving run, budget 3, no pictures:
-    (its folder, the Falsification)."""
+def _search(driving_run, tmp_path_factory, cache, policy: str, budget: int):
     from regen.falsify import run_falsify
 
     with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("REGEN_CACHE_DIR", str(_falsify_cache))
-        out = tmp_path_factory.mktemp("falsify") / "constant-speed"
-        report = run_falsify(driving_run, "constant-speed", budget=3, out=out, pictures=False, param_budget=0)
+        mp.setenv("REGEN_CACHE_DIR", str(cache))
+        out = tmp_path_factory.mktemp("falsify") / policy
+        report = run_falsify(driving_run, policy, budget=budget, out=out, pictures=False, param_budget=0)
     return out, report
+
+
+@pytest.fixture(scope="session")
+def searched(driving_run, tmp_path_factory, _falsify_cache):
+    """``regen falsify`` of constant-speed over the driving run, budget 3, no pictures: (its
+    folder, the Falsification). constant-speed hits the child in the scenario as generated, so
+    its baseline is the finding and no edit is searched."""
+    return _search(driving_run, tmp_path_factory, _falsify_cache, "constant-speed", 3)
+
+
+@pytest.fixture(scope="session")
+def searched_aeb(driving_run, tmp_path_factory, _falsify_cache):
+    """``regen falsify`` of aeb over the driving run, budget 4, no pictures: (its folder, the
+    Falsification). aeb stops for the child as generated (its baseline passes), so the edits are
+    searched: the baseline, then three single edits."""
+    return _search(driving_run, tmp_path_factory, _falsify_cache, "aeb", 4)
 
 
 @pytest.fixture(scope="session")

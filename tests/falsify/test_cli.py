@@ -46,15 +46,19 @@ def test_an_unknown_policy_is_refused_before_anything_is_written(driving_run):
 
 @pytest.mark.slow
 def test_a_search_prints_a_line_per_candidate_a_table_and_updates_the_report(driving_run):
-    res = _falsify(str(driving_run), "--policy", "aeb", "--budget", "2", "--no-pictures", "--param-budget", "0")
+    res = _falsify(str(driving_run), "--policy", "aeb", "--budget", "3", "--no-pictures", "--param-budget", "0")
     assert res.exit_code == 0, res.output
     lines = res.output.splitlines()
-    assert re.match(r"(PASS|FAIL|INVALID)  \[1/2\] 01-child-crosses: add cause 'a road worker", lines[0]), lines[0]
-    assert lines[1].startswith("INVALID  [2/2] 01-child-crosses: remove child1  the scripted ego does not verify")
-    assert "2/2 candidates simulated" in res.output and "1 invalid" in res.output
+    # the scenario as generated first (aeb stops for the child), then its single edits
+    assert re.match(r"PASS  \[1/3\] 01-child-crosses: no edit \(the scenario as generated\)  min TTC ", lines[0]), \
+        lines[0]
+    assert re.match(r"(PASS|FAIL|INVALID)  \[2/3\] 01-child-crosses: add cause 'a road worker", lines[1]), lines[1]
+    assert lines[2].startswith("INVALID  [3/3] 01-child-crosses: remove child1  the scripted ego does not verify")
+    assert "3/3 candidates simulated" in res.output and "1 invalid" in res.output
     out = driving_run / "falsify" / "aeb"
     saved = json.loads((out / "falsify.json").read_text())
-    assert saved["policy"] == "aeb" and saved["status"] == "done" and saved["tried"] == 2
+    assert saved["policy"] == "aeb" and saved["status"] == "done" and saved["tried"] == 3
+    assert saved["sources"][0]["baseline"] == "passed"
     assert f"report: {driving_run / 'report.html'}" in res.output
     html = (driving_run / "report.html").read_text()
     assert 'id="falsify"' in html and "falsify/aeb/falsify.json" in html
@@ -84,10 +88,13 @@ def test_llm_proposes_a_cause_cached_beside_falsify_json(driving_run, tmp_path, 
     provider = QueuedProvider([{"causes": ["a police car blocks the lane ahead"]}])
     monkeypatch.setitem(registry._FACTORIES, "queued", lambda name, **kw: provider)
     out = tmp_path / "fz"
-    res = _falsify(str(driving_run), "--policy", "constant-speed", "--budget", "1", "--llm", "queued:test",
+    # aeb passes the scenario as generated (the first candidate, half the budget): then the model
+    res = _falsify(str(driving_run), "--policy", "aeb", "--budget", "2", "--llm", "queued:test",
                    "--no-pictures", "--param-budget", "0", "--out", str(out))
     assert res.exit_code == 0, res.output
-    assert "add cause 'a police car blocks the lane ahead' (model)" in res.output.splitlines()[0]
+    lines = res.output.splitlines()
+    assert lines[0].startswith("PASS  [1/2] 01-child-crosses: no edit (the scenario as generated)")
+    assert "add cause 'a police car blocks the lane ahead' (model)" in lines[1]
     assert (out / "llm-cache.sqlite").is_file() and len(provider.requests) == 1
     saved = json.loads((out / "falsify.json").read_text())
     assert saved["model"][0]["causes"] == ["a police car blocks the lane ahead"]

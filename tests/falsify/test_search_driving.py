@@ -1,6 +1,8 @@
-"""``regen falsify`` on a driving run built without a model: findings only where the scripted ego
-verified and hit nothing, invalid candidates never reported as the policy's failures, replay,
-resume, the model's causes and the search's order (pairs, shrinking) over fake candidates."""
+"""``regen falsify`` on a driving run built without a model: the baseline (the scenario as
+generated, no edit) first, and a scenario the policy already fails is its own finding with its
+edits not searched; findings only where the scripted ego verified and hit nothing, invalid
+candidates never reported as the policy's failures, replay, resume, the model's causes and the
+search's order (pairs, shrinking) over fake candidates."""
 
 from __future__ import annotations
 
@@ -14,35 +16,72 @@ from falsify_runs import CHILD, OTHER_CAUSE
 pytest.importorskip("scenic")
 
 from regen.falsify import CandidateRecord, PolicyRun, ScriptedRun, run_falsify  # noqa: E402
+from regen.falsify.candidate import NO_EDIT  # noqa: E402
 from regen.runfolder import RunFolder  # noqa: E402
 
 pytestmark = pytest.mark.slow
 
 
-def test_a_policy_that_never_brakes_gets_findings_where_the_scripted_ego_verified(searched):
+def _a_finding_where_the_scripted_ego_verified(f, policy: str) -> None:
+    assert f.scripted.verified and not f.scripted.collision and f.policy.status == "failed"
+    tests = json.loads(Path(f.tests).read_text())  # written exactly as regen test writes it
+    (case,) = tests["cases"]
+    assert case["status"] == "failed" and case["adversarial"] and case["template"]["verified"]
+    assert not case["template"]["collision"]
+    assert (Path(f.folder) / RunFolder.MANIFEST).is_file() and Path(f.xosc).suffix == ".xosc"
+    assert f.replay == f"regen test {f.folder} --policy {policy}"
+
+
+def test_a_policy_that_fails_the_scenario_as_generated_gets_one_finding_with_no_edit(searched):
+    """constant-speed hits the child without any edit: that is the scenario's one finding (its
+    minimal edit set is empty), and none of its edits is tried though the budget allows more."""
     out, report = searched
-    assert report.status == "done" and report.tried == 3 and report.budget == 3
-    assert [c.words for c in report.candidates] == [[f"add cause '{OTHER_CAUSE}'"], ["remove child1"],
-                                                    ["set child1.behavior = stationary"]]
-    assert report.findings, [c.reason for c in report.candidates]
-    for f in report.findings:
-        assert f.scripted.verified and not f.scripted.collision and f.policy.status == "failed"
-        assert f.minimal and f.chain == [f.edits]
-        tests = json.loads(Path(f.tests).read_text())  # written exactly as regen test writes it
-        (case,) = tests["cases"]
-        assert case["status"] == "failed" and case["adversarial"] and case["template"]["verified"]
-        assert not case["template"]["collision"]
-        assert (Path(f.folder) / RunFolder.MANIFEST).is_file() and Path(f.xosc).suffix == ".xosc"
-        assert f.replay == f"regen test {f.folder} --policy constant-speed"
-    added = report.findings[0]
-    assert added.edits == [f"add cause '{OTHER_CAUSE}'"] and added.failure.startswith("collision with ")
-    saved = json.loads((out / "falsify.json").read_text())
-    assert saved["tried"] == 3 and len(saved["findings"]) == len(report.findings)
+    assert report.status == "done" and report.budget == 3 and report.tried == report.simulated == 1
+    (baseline,) = report.candidates
+    assert baseline.origin == "baseline" and baseline.edits == [] and baseline.words == [NO_EDIT]
+    assert baseline.status == "failed" and baseline.minimal and baseline.chain == [baseline.cid]
+    (f,) = report.findings
+    assert f.cid == baseline.cid and f.scenario == CHILD and f.edit_list == [] and f.edits == [NO_EDIT]
+    assert f.minimal and f.chain == [[NO_EDIT]] and f.failure.startswith("collision with child1")
+    _a_finding_where_the_scripted_ego_verified(f, "constant-speed")
+    (source,) = report.sources
+    assert source["scenario"] == CHILD and source["baseline"] == "failed" and source["singles"] > 0
+    assert "fails without any edit" in source["note"]
+    saved = json.loads((out / "falsify.json").read_text())  # the candidates as written: no edit searched
+    assert [(c["origin"], c["edits"], c["status"]) for c in saved["candidates"]] == [("baseline", [], "failed")]
+    assert [x["edit_list"] for x in saved["findings"]] == [[]] and saved["failures"] == 1
     assert saved["parameter_search"] == "parameter search not run: --param-budget 0"
 
 
-def test_a_candidate_the_scripted_ego_does_not_survive_is_invalid_never_a_finding(searched):
-    _, report = searched
+def test_a_policy_that_passes_the_baseline_gets_findings_where_the_scripted_ego_verified(searched_aeb):
+    """aeb stops for the child as generated: its baseline is recorded as passed and the single
+    edits are searched as before; the findings are edits."""
+    out, report = searched_aeb
+    assert report.status == "done" and report.tried == 4 and report.budget == 4
+    assert [c.words for c in report.candidates] == [[NO_EDIT], [f"add cause '{OTHER_CAUSE}'"], ["remove child1"],
+                                                    ["set child1.behavior = stationary"]]
+    baseline = report.candidates[0]
+    assert baseline.origin == "baseline" and baseline.edits == [] and baseline.status == "passed"
+    assert baseline.scripted.verified and baseline.policy.status == "passed" and baseline.minimal is None
+    assert all(c.origin == "single" and len(c.edits) == 1 for c in report.candidates[1:])
+    (source,) = report.sources
+    assert source["baseline"] == "passed" and "note" not in source
+    assert report.findings, [c.reason for c in report.candidates]
+    for f in report.findings:
+        assert f.edit_list and NO_EDIT not in f.edits and f.cid != baseline.cid
+        assert f.minimal and f.chain == [f.edits]
+        _a_finding_where_the_scripted_ego_verified(f, "aeb")
+    (stationary,) = report.findings
+    assert stationary.edits == ["set child1.behavior = stationary"]
+    assert stationary.failure.startswith("missed state: ")
+    saved = json.loads((out / "falsify.json").read_text())
+    assert saved["tried"] == 4 and len(saved["findings"]) == len(report.findings)
+    assert (saved["candidates"][0]["origin"], saved["candidates"][0]["status"]) == ("baseline", "passed")
+    assert saved["parameter_search"] == "parameter search not run: --param-budget 0"
+
+
+def test_a_candidate_the_scripted_ego_does_not_survive_is_invalid_never_a_finding(searched_aeb):
+    _, report = searched_aeb
     removed = next(c for c in report.candidates if c.words == ["remove child1"])
     assert removed.status == "invalid" and not removed.scripted.verified and removed.policy is None
     assert "does not verify" in removed.reason
@@ -71,30 +110,36 @@ def test_a_candidate_in_which_the_scripted_ego_collides_is_invalid(driving_run, 
     assert "collides" in rec.reason and not report.findings and report.failures == 0
 
 
-def test_a_finding_replays_with_regen_test(searched):
+@pytest.mark.parametrize(("searched_by", "policy"), [("searched", "constant-speed"), ("searched_aeb", "aeb")])
+def test_a_finding_replays_with_regen_test(searched_by, policy, request):
+    """The finding with no edit (constant-speed) and one with an edit (aeb)."""
     from regen.harness.suite import run_tests
 
-    _, report = searched
+    _, report = request.getfixturevalue(searched_by)
     f = report.findings[0]
-    again = run_tests(f.folder, "constant-speed")
+    again = run_tests(f.folder, policy)
     (case,) = again.cases
     assert case.status == "failed" and case.cause == f.policy.cause
     assert case.collision_with == f.policy.collision_with
 
 
-def test_a_rerun_keeps_the_finished_candidates(searched, monkeypatch):
+@pytest.mark.parametrize(("searched_by", "budget"), [("searched", 3), ("searched_aeb", 4)])
+def test_a_rerun_keeps_the_finished_candidates(searched_by, budget, request, monkeypatch):
     from regen.falsify import candidate
 
-    out, report = searched
+    out, report = request.getfixturevalue(searched_by)
+    policy = report.policy
 
     def never(*args, **kwargs):
         raise AssertionError("a finished candidate was run again")
 
     monkeypatch.setattr(candidate, "run_candidate", never)
     monkeypatch.setattr("regen.falsify.search.run_candidate", never)
-    again = run_falsify(report.run, "constant-speed", budget=3, out=out, pictures=False, param_budget=0)
-    assert again.kept == again.tried == 3 and all(c.kept for c in again.candidates)
+    again = run_falsify(report.run, policy, budget=budget, out=out, pictures=False, param_budget=0)
+    assert again.kept == again.tried == report.tried and all(c.kept for c in again.candidates)
+    assert [c.origin for c in again.candidates] == [c.origin for c in report.candidates]
     assert [f.cid for f in again.findings] == [f.cid for f in report.findings]
+    assert [f.minimal for f in again.findings] == [f.minimal for f in report.findings]
 
 
 def test_the_model_s_causes_are_added_and_marked(driving_run, tmp_path, monkeypatch):
@@ -105,24 +150,26 @@ def test_the_model_s_causes_are_added_and_marked(driving_run, tmp_path, monkeypa
                                            OTHER_CAUSE]}])
     monkeypatch.setitem(registry._FACTORIES, "queued", lambda name, **kw: provider)
     llm = LLM("queued:test", cache=str(tmp_path / "cache.sqlite"))
-    report = run_falsify(driving_run, "constant-speed", budget=2, out=tmp_path / "fz", llm=llm, pictures=False,
-                         param_budget=0)
-    prompt = provider.requests[0][-1]["content"]
-    assert "constant-speed" in prompt and "child1" in prompt and OTHER_CAUSE in prompt  # tried causes named
+    # aeb passes the scenario as generated, so its edits are searched: the baseline and a single
+    # spend half the budget, then the model is asked
+    report = run_falsify(driving_run, "aeb", budget=4, out=tmp_path / "fz", llm=llm, pictures=False, param_budget=0)
+    (request,) = provider.requests
+    prompt = request[-1]["content"]
+    assert "aeb" in prompt and "child1" in prompt and OTHER_CAUSE in prompt  # tried causes named
     (asked,) = report.model
     assert asked.causes == ["a police car blocks the lane ahead"]
     assert set(asked.rejected) == {"the ego's brakes fail", OTHER_CAUSE}
-    first, second = report.candidates
-    assert first.origin == "single" and not first.by_model
-    assert second.origin == "model" and second.by_model
-    assert second.words == ["add cause 'a police car blocks the lane ahead'"]
+    assert [c.origin for c in report.candidates] == ["baseline", "single", "model", "single"]
+    _, first, second, _ = report.candidates
+    assert not first.by_model and first.words == [f"add cause '{OTHER_CAUSE}'"]
+    assert second.by_model and second.words == ["add cause 'a police car blocks the lane ahead'"]
     assert report.settings["llm"].startswith("queued")
 
 
-def test_without_the_parameter_module_the_stage_says_why(searched, monkeypatch):
-    out, report = searched
+def test_without_the_parameter_module_the_stage_says_why(searched_aeb, monkeypatch):
+    out, report = searched_aeb
     monkeypatch.setitem(sys.modules, "regen.falsify.params", None)  # import fails
-    again = run_falsify(report.run, "constant-speed", budget=3, out=out, pictures=False, param_budget=4)
+    again = run_falsify(report.run, "aeb", budget=4, out=out, pictures=False, param_budget=4)
     assert again.parameter_search.startswith("parameter search not run: ")
     assert all(f.parameter_search is None for f in again.findings)
 
@@ -138,7 +185,7 @@ def _fake(fails, ungroundable=lambda words: False):
         from regen.falsify.space import candidate_id, canonical
 
         edits = canonical(edits)
-        words = [e.describe() for e in edits]
+        words = [e.describe() for e in edits] or [NO_EDIT]  # as run_candidate words the baseline
         if ungroundable(set(words)):
             return CandidateRecord(cid=candidate_id(source.name, edits), scenario=source.name, edits=edits,
                                    words=words, origin=origin, status="invalid", simulated=False,
@@ -161,7 +208,8 @@ def test_pairs_come_after_every_single_and_a_failing_pair_is_minimal(driving_run
     report = run_falsify(driving_run, "constant-speed", budget=500, out=tmp_path / "fz", param_budget=0)
     sizes = [len(c.edits) for c in report.candidates]
     singles = sizes.count(1)
-    assert sizes == [1] * singles + [2] * (len(sizes) - singles) and singles == 17  # breadth-first
+    assert sizes == [0] + [1] * singles + [2] * (len(sizes) - singles - 1) and singles == 17  # breadth-first
+    assert report.candidates[0].origin == "baseline" and report.candidates[0].status == "passed"
     assert report.tried < 500  # every compatible pair tried, then the search ends
     (finding,) = report.findings
     assert set(finding.edits) == {fast, ahead} and finding.minimal and finding.scenario == CHILD
@@ -176,6 +224,38 @@ def test_a_failing_single_is_the_finding_and_never_paired(driving_run, tmp_path,
     assert [f.edits for f in report.findings] == [[fast]]
     assert not [c for c in report.candidates if len(c.edits) > 1 and fast in c.words]
     assert report.failures == 1
+
+
+def _queued_llm(tmp_path, monkeypatch, answers):
+    from regen.llm import LLM, registry
+    from regen.llm.testing import QueuedProvider
+
+    provider = QueuedProvider(answers)
+    monkeypatch.setitem(registry._FACTORIES, "queued", lambda name, **kw: provider)
+    return provider, LLM("queued:test", cache=str(tmp_path / "cache.sqlite"))
+
+
+def test_a_scenario_failing_as_generated_is_neither_searched_nor_sent_to_the_model(driving_run, tmp_path,
+                                                                                   monkeypatch):
+    """Every candidate would fail: the baseline does, so it is the one finding and no single,
+    pair, shrink or model cause of the scenario is tried, though the budget allows them."""
+    provider, llm = _queued_llm(tmp_path, monkeypatch, [{"causes": ["a police car blocks the lane ahead"]}])
+    monkeypatch.setattr("regen.falsify.search.run_candidate", _fake(lambda w: True))
+    report = run_falsify(driving_run, "constant-speed", budget=30, out=tmp_path / "fz", llm=llm, param_budget=0)
+    assert not provider.requests and report.model == []
+    (baseline,) = report.candidates
+    assert baseline.origin == "baseline" and baseline.edits == [] and baseline.minimal
+    (f,) = report.findings
+    assert f.edit_list == [] and f.edits == [NO_EDIT] and f.minimal and f.chain == [[NO_EDIT]]
+    assert report.tried == report.simulated == report.failures == 1
+
+
+def test_no_model_call_once_the_baselines_spent_the_budget(driving_run, tmp_path, monkeypatch):
+    provider, llm = _queued_llm(tmp_path, monkeypatch, [{"causes": ["a police car blocks the lane ahead"]}])
+    monkeypatch.setattr("regen.falsify.search.run_candidate", _fake(lambda w: False))
+    report = run_falsify(driving_run, "constant-speed", budget=1, out=tmp_path / "fz", llm=llm, param_budget=0)
+    assert [c.origin for c in report.candidates] == ["baseline"] and report.candidates[0].status == "passed"
+    assert not provider.requests and report.model == [] and not report.findings
 
 
 def test_a_candidate_that_cannot_be_grounded_does_not_count_against_the_budget(driving_run, tmp_path, monkeypatch):

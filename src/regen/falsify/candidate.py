@@ -96,6 +96,9 @@ class Bench:
         return None if p is None else Path(p).relative_to(self.out).as_posix()
 
 
+#: the words of the baseline candidate: the source scenario regrounded with no edit
+NO_EDIT = "no edit (the scenario as generated)"
+
 def replay_command(run: Path, policy: str, oracle: str) -> str:
     """The ``regen test`` command that runs the policy in a candidate again (a policy file's path
     made absolute, so the command works from any folder)."""
@@ -140,7 +143,7 @@ def run_candidate(bench: Bench, source: Source, edits: Sequence[Edit], *, origin
     edits = canonical(edits)
     cid = candidate_id(source.name, edits)
     run = bench.run_folder(cid)
-    words = [e.describe() for e in edits]
+    words = [e.describe() for e in edits] or [NO_EDIT]
     base = {"cid": cid, "scenario": source.name, "edits": edits, "words": words, "origin": origin,
             "by_model": by_model, "folder": bench.rel(run), "settings": bench.settings}
     t0 = time.perf_counter()

@@ -22,7 +22,7 @@ CANDIDATES = "candidates"
 Status = Literal["passed", "failed", "invalid", "error"]
 #: Where a candidate came from: the single edits, the model's causes (``--llm``), pairs of
 #: singles, or a subset tried while shrinking a failing candidate.
-Origin = Literal["single", "model", "pair", "shrink"]
+Origin = Literal["baseline", "single", "model", "pair", "shrink"]
 
 
 class ScriptedRun(Model):

@@ -3,6 +3,8 @@
 From the run's verified scenarios (``caused`` ones first), breadth-first by size within a budget
 of candidates (each grounded, simulated and tested: :mod:`regen.falsify.candidate`):
 
+0. each scenario as generated, with no edit (the baseline): where the policy fails already, that
+   failure is the scenario's finding (no edit needed) and its edits are not searched;
 1. every single edit (:mod:`regen.falsify.space`), spread over the scenarios round-robin;
 2. with a model (``llm``): once the singles are done or half the budget is spent, the causes the
    model proposes from the failures so far (:mod:`regen.falsify.proposals`), as ``add`` edits;
@@ -117,6 +119,7 @@ class _Search:
     order: list[str] = field(default_factory=list)
     spent: int = 0  # candidates simulated: what the budget counts
     singles: dict[str, list[tuple[Edit, Origin]]] = field(default_factory=dict)  # per source
+    fails_as_generated: set[str] = field(default_factory=set)  # sources the policy fails with no edit
     t0: float = field(default_factory=time.perf_counter)
 
     # --- candidates ------------------------------------------------------------------------
@@ -167,7 +170,26 @@ class _Search:
             self.report.sources.append({"scenario": s.name, "status": s.verdict.status, "causal": s.causal,
                                         "singles": len(edits), "graph_causes": causes})
 
+    def baselines(self) -> None:
+        """Each source scenario as generated (no edit) with the policy, before any edit: where
+        the policy fails already, that is the finding (its minimal edit set is empty) and the
+        source's edits are not searched, since every failing edit of it would be explained by
+        the failure without one."""
+        for s in self.sources:
+            rec = self.attempt(s, [], "baseline")
+            if rec is None:
+                return
+            entry = next(e for e in self.report.sources if e["scenario"] == s.name)
+            entry["baseline"] = rec.status
+            if rec.status == "failed":
+                self.records[rec.cid] = rec.model_copy(update={"minimal": True})
+                entry["note"] = (f"the policy fails without any edit ({failure_words(rec)}); its edits are not "
+                                 "searched")
+                self.singles[s.name] = []
+                self.fails_as_generated.add(s.name)
+
     def run(self) -> None:
+        self.baselines()
         order = [[(s, e, o) for e, o in self.singles[s.name]] for s in self.sources]
         asked = self.llm is None
         for source, edit, origin in _interleave(order):
@@ -182,11 +204,17 @@ class _Search:
         self.shrink_all()
 
     def model_round(self) -> None:
-        """Ask the model for causes per source scenario; try each as an ``add``."""
+        """Ask the model for causes per source scenario whose edits are searched (not one the
+        policy fails as generated); try each as an ``add``. No call once the budget is spent (the
+        baselines may spend it all): its causes could not be tried."""
         from regen.falsify.proposals import propose_causes
 
+        if self.spent >= self.budget:
+            return
         new: list[list[tuple[Source, Edit]]] = []
         for s in self.sources:
+            if s.name in self.fails_as_generated:
+                continue
             failures = [f"{'; '.join(r.words)}: {failure_words(r)}" for r in self.of(s) if r.status == "failed"]
             tried = [s.scenario.causal_graph[0], *(e.text or "" for e, _ in self.singles[s.name] if e.op == "add")]
             with self.interrupts.deferred():
@@ -229,6 +257,9 @@ class _Search:
             rec = self.records[cid]
             if rec.status != "failed":
                 continue
+            if not rec.edits:  # the baseline: the scenario fails as generated, nothing to shrink
+                self.records[cid] = rec.model_copy(update={"minimal": True, "chain": [cid]})
+                continue
             source = next(s for s in self.sources if s.name == rec.scenario)
             by_key = {edit_key(e): e for e in rec.edits}
             shrunk = shrink(list(by_key), functools.partial(self.outcome, source, by_key))
@@ -265,7 +296,7 @@ class _Search:
             run = self.bench.run_folder(end)
             out.append(Finding(
                 cid=end, scenario=rec.scenario, edits=rec.words, edit_list=rec.edits,
-                minimal=rec.minimal if rec.minimal is not None else rec.size == 1,
+                minimal=rec.minimal if rec.minimal is not None else rec.size <= 1,
                 chain=[self.records[c].words for c in chain], by_model=rec.by_model, scripted=rec.scripted,
                 policy=rec.policy, failure=failure_words(rec), parameters=rec.parameters, folder=str(run),
                 gif=self.absolute(rec.policy.gif if rec.policy else None), xosc=self.absolute(rec.xosc),
