@@ -33,11 +33,14 @@ def test_the_section_lists_each_policy_s_search_and_findings(make_run):
     (base / "candidates" / cid / "tests" / "idm" / "tests.json").write_text("{}")
     write_json(base / "falsify.json", _search("idm", f"candidates/{cid}/tests/idm/{cid}-v0/failure.gif"))
     write_json(run / "falsify" / "aeb" / "falsify.json", _search("aeb", "../../../../secret.gif"))
+    safety = {**_search("idm", None), "settings": {"oracle": "safety"}}  # a second search of idm, --out
+    write_json(run / "falsify" / "idm-safety" / "falsify.json", safety)
     (run / "falsify" / "broken").mkdir()
     (run / "falsify" / "broken" / "falsify.json").write_text("{not json", encoding="utf-8")
-    assert sorted(read_falsify(run)) == ["aeb", "broken", "idm"]
+    assert sorted(read_falsify(run)) == ["aeb", "broken", "idm", "idm-safety"]
     view = load_run(run)
-    aeb, broken, idm = view.falsify
+    aeb, broken, idm, idm_safety = view.falsify
+    assert (idm.oracle, idm_safety.oracle, idm_safety.policy) == ("", "safety", "idm")
     assert broken.problem.startswith("unreadable") and not broken.findings
     assert (idm.simulated, idm.invalid, idm.ungrounded, idm.failures, idm.budget) == (24, 5, 6, 3, 24)
     (f,) = idm.findings
@@ -51,6 +54,8 @@ def test_the_section_lists_each_policy_s_search_and_findings(make_run):
     assert f"regen test RUN/falsify/idm/candidates/{cid} --policy idm" in html
     assert f'src="falsify/idm/candidates/{cid}/tests/idm/{cid}-v0/failure.gif"' in html
     assert not re.search(r'src="[^"]*secret', html)
+    # two searches of one policy tell apart by their oracle and folder
+    assert "<td>safety</td>" in html and "falsify/idm-safety" in html and "Findings of idm (safety oracle)" in html
 
 
 def test_no_falsify_folder_no_section(make_run):

@@ -44,6 +44,7 @@ class PolicyFalsification:
 
     folder: str
     policy: str = ""
+    oracle: str = ""  # the tests' oracle (fsm, safety)
     problem: str | None = None  # why falsify.json could not be read
     status: str = ""  # done, interrupted, running
     budget: int | None = None
@@ -114,6 +115,8 @@ def read_policy(run_dir: Path, folder: str, loaded, anchors: dict[str, tuple[str
         return out
     data = loaded.value
     out.policy = _text(data.get("policy")) or folder
+    settings = data.get("settings") if isinstance(data.get("settings"), dict) else {}
+    out.oracle = _text(settings.get("oracle"))
     out.status = _text(data.get("status"))
     out.budget = _int(data.get("budget")) or None
     out.tried = _int(data.get("tried"))
