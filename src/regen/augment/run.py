@@ -13,7 +13,7 @@ from regen import domains
 from regen.core.base import Answer, Model
 from regen.core.scenario import Scenario
 from regen.errors import ConfigError, RegenError
-from regen.whatif import Edit, context_of, judge_root, run_whatif
+from regen.whatif import Edit, cast_lines, context_of, judge_root, run_whatif
 
 if TYPE_CHECKING:
     from regen.assets.database import AssetDatabase
@@ -52,16 +52,6 @@ class Augmentation(Model):
     dropped: list[str] = Field(default_factory=list)  # proposals that named nothing in the scene
     additions: list[Tried] = Field(default_factory=list)
     irrelevant: list[Tried] = Field(default_factory=list)
-
-
-def cast_lines(scenario: Scenario, db: AssetDatabase) -> list[str]:
-    """The cast a proposal may change (:func:`regen.whatif.context_of`) for the prompt, one line each."""
-    out = []
-    for e in context_of(scenario, db):
-        props = ", ".join(f"{k} = {v}" for k, v in e.properties.items())
-        out.append(f"- {e.name}: a {e.asset.replace('_', ' ')}, {e.behavior or 'stationary'}"
-                   + (f" ({props})" if props else ""))
-    return out
 
 
 def propose(scenario: Scenario, llm: LLM, db: AssetDatabase) -> tuple[Proposal, str | None]:

@@ -153,17 +153,11 @@ def _print_summary(console: Console, report: Falsification) -> None:
 
 
 def _rerender(console: Console, run_dir: Path, dest: Path) -> None:
-    """Rewrite RUN_DIR/report.html so it shows the search (a problem is told, not raised), saying
-    so when the search was written elsewhere with --out (the report shows RUN_DIR/falsify only)."""
-    from regen.report import write_report
+    """Rewrite RUN_DIR/report.html so it shows the search (``regen test``'s own way)."""
+    from regen.harness.cli import rerender_report
     from regen.runfolder import RunFolder
 
-    inside = dest.resolve().parent == (run_dir / RunFolder.FALSIFY).resolve()
-    note = "" if inside else f" (it shows the searches under {shown(str(run_dir / RunFolder.FALSIFY))} only; not this one)"
-    try:
-        console.print(f"report: {shown(str(write_report(run_dir)))}{note}")
-    except (RegenError, OSError) as exc:
-        console.print(f"[yellow]report not updated:[/yellow] {shown(str(exc))}")
+    console.print(rerender_report(run_dir, dest, RunFolder.FALSIFY, "the searches", "not this one"))
 
 
 def make_app() -> typer.Typer:

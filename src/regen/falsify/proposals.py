@@ -13,6 +13,7 @@ from pydantic import Field
 from regen import domains
 from regen.core.base import Answer
 from regen.falsify.record import ModelRound
+from regen.whatif import cast_lines
 
 if TYPE_CHECKING:
     from regen.assets.database import AssetDatabase
@@ -26,18 +27,6 @@ class Causes(Answer):
     """The model's answer: cause events to add to the scene."""
 
     causes: list[str] = Field(default_factory=list, max_length=6)
-
-
-def cast_lines(scenario: Scenario, db: AssetDatabase) -> list[str]:
-    """The scene's cast a cause may join (:func:`regen.whatif.context_of`), one line each."""
-    from regen.whatif import context_of
-
-    out = []
-    for e in context_of(scenario, db):
-        props = ", ".join(f"{k} = {v}" for k, v in e.properties.items())
-        out.append(f"- {e.name}: a {e.asset.replace('_', ' ')}, {e.behavior or 'stationary'}"
-                   + (f" ({props})" if props else ""))
-    return out
 
 
 def propose_causes(scenario: Scenario, name: str, llm: LLM, db: AssetDatabase, *, policy: str,
@@ -77,4 +66,4 @@ def propose_causes(scenario: Scenario, name: str, llm: LLM, db: AssetDatabase, *
     return out
 
 
-__all__ = ["MAX_CAUSES", "Causes", "cast_lines", "propose_causes"]
+__all__ = ["MAX_CAUSES", "Causes", "propose_causes"]

@@ -21,7 +21,7 @@ import json
 from collections.abc import Iterable, Sequence
 from typing import TYPE_CHECKING, Any
 
-from regen.whatif import Edit, context_of
+from regen.whatif import Edit, actual_values, context_of, path_pairs
 
 if TYPE_CHECKING:
     from regen.assets.database import AssetDatabase
@@ -50,31 +50,18 @@ def candidate_id(scenario: str, edits: Sequence[Edit]) -> str:
 
 
 def current_values(entity: Any, path_entity: Any | None = None) -> dict[str, str]:
-    """What a scenario entity has now, per property: its behavior, states and behavior
-    parameters, and the cause path's single values for the rest (its start place, say)."""
+    """What a scenario entity has now, per property: the cause path's single values (its start
+    place, say), then what the scenario has (:func:`regen.whatif.actual_values`: behavior,
+    states and behavior parameters)."""
     out: dict[str, str] = {}
     if path_entity is not None:
         out.update({k: v[0] for k, v in path_entity.properties.items() if len(v) == 1})
-    out.update({k: str(v) for k, v in entity.behavior_params.items() if isinstance(v, (str, int, float))})
-    out.update({k: str(v) for k, v in entity.properties.items()})
-    if entity.behavior:
-        out["behavior"] = entity.behavior
-    return out
+    return {**out, **actual_values(entity)}
 
 
 def _path_entities(scenario: Scenario, path: CausePath) -> dict[str, Any]:
-    """Scenario entity name -> its cause path entity (same asset, in order; as apply_edits pairs them)."""
-    used: set[int] = set()
-    out: dict[str, Any] = {}
-    for e in scenario.entities:
-        if e.is_robot:
-            continue
-        for i, pe in enumerate(path.entities):
-            if i not in used and pe.asset == e.asset:
-                out[e.name] = pe
-                used.add(i)
-                break
-    return out
+    """Scenario entity name -> its cause path entity, paired as apply_edits pairs them."""
+    return {name: path.entities[i] for name, i in path_pairs(scenario, path).items()}
 
 
 def root_causes(graph: ScenarioGraph | None, chain: Sequence[str]) -> list[str]:

@@ -135,17 +135,22 @@ def test_command(
 
 
 def _rerender(run_dir: Path, dest: Path) -> str:
-    """Rewrite RUN_DIR/report.html so it shows the tests; the terminal line saying where it is
-    (and that tests written elsewhere with --out are not in it)."""
-    from regen.report import write_report as write_run_report
     from regen.runfolder import RunFolder
 
-    inside = Path(dest).resolve().parent == (Path(run_dir) / RunFolder.TESTS).resolve()
-    note = "" if inside else (f" (it shows the tests under {escape(str(Path(run_dir) / RunFolder.TESTS))} "
-                              "only; these are not in it)")
+    return rerender_report(run_dir, dest, RunFolder.TESTS, "the tests", "these are not in it")
+
+
+def rerender_report(run_dir: Path, dest: Path, section: str, what: str, elsewhere: str) -> str:
+    """Rewrite RUN_DIR/report.html so it shows what a command wrote under RUN_DIR/``section``;
+    the terminal line saying where it is, and (``elsewhere``) that results written elsewhere with
+    --out are not in it. A report problem is only told: the results are written."""
+    from regen.report import write_report as write_run_report
+
+    inside = Path(dest).resolve().parent == (Path(run_dir) / section).resolve()
+    note = "" if inside else f" (it shows {what} under {escape(str(Path(run_dir) / section))} only; {elsewhere})"
     try:
         return f"report: {escape(str(write_run_report(run_dir)))}{note}"
-    except (RegenError, OSError) as exc:  # the tests are written; a report problem is only told
+    except (RegenError, OSError) as exc:
         return f"[yellow]report not updated:[/yellow] {shown(str(exc))}"
 
 
@@ -156,4 +161,4 @@ def make_app() -> typer.Typer:
     return app
 
 
-__all__ = ["default_out", "make_app", "test_command"]
+__all__ = ["default_out", "make_app", "rerender_report", "test_command"]

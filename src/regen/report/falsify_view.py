@@ -7,12 +7,11 @@ named with its problem. A failure's picture is linked only when it lies inside i
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
-from pathlib import Path, PurePosixPath
+from pathlib import Path
 from typing import Any
 
-from regen.report.links import href
+from regen.report.links import href, inside_href, num, text
 from regen.runfolder import RunFolder, read_falsify
 
 __all__ = ["FalsifyFinding", "PolicyFalsification", "load_falsify"]
@@ -64,42 +63,26 @@ def _int(value: Any) -> int:
     return value if isinstance(value, int) and not isinstance(value, bool) else 0
 
 
-def _num(value: Any) -> float | None:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        return None
-    return float(value)
-
-
-def _text(value: Any) -> str:
-    return value if isinstance(value, str) else ""
-
-
-def _inside(base: Path, folder: str, value: Any) -> str | None:
-    """href of a file named relative to the policy's folder, if it is a file inside it."""
-    if not isinstance(value, str) or not value or "\\" in value:
-        return None
-    rel = PurePosixPath(value)
-    if rel.is_absolute() or ".." in rel.parts or not (base / rel).is_file():
-        return None
-    return href(RunFolder.FALSIFY, folder, *rel.parts)
-
-
 def _finding(raw: dict[str, Any], candidates: dict[str, dict[str, Any]], base: Path, folder: str,
              anchors: dict[str, tuple[str, int]]) -> FalsifyFinding:
-    cid = _text(raw.get("cid")) or "?"
+    cid = text(raw.get("cid")) or "?"
     cand = candidates.get(cid, {})
     policy = cand.get("policy") if isinstance(cand.get("policy"), dict) else {}
     scripted = raw.get("scripted") if isinstance(raw.get("scripted"), dict) else {}
     words = raw.get("edits")
-    status = _text(scripted.get("status"))
-    causal = _text(scripted.get("causal"))
-    out = FalsifyFinding(cid=cid, scenario=_text(raw.get("scenario")) or "?",
+    status = text(scripted.get("status"))
+    causal = text(scripted.get("causal"))
+
+    def inside(value: Any) -> str | None:  # a file of the policy's folder, linked
+        return inside_href(base, value, RunFolder.FALSIFY, folder)
+
+    out = FalsifyFinding(cid=cid, scenario=text(raw.get("scenario")) or "?",
                          edits=[str(w) for w in words] if isinstance(words, list) else [],
-                         failure=_text(raw.get("failure")), scripted=status + (f", {causal}" if causal else ""),
+                         failure=text(raw.get("failure")), scripted=status + (f", {causal}" if causal else ""),
                          minimal=raw.get("minimal") is True, by_model=raw.get("by_model") is True,
-                         replay=_text(raw.get("replay")), gif=_inside(base, folder, policy.get("gif")),
-                         tests=_inside(base, folder, cand.get("tests")), xosc=_inside(base, folder, cand.get("xosc")),
-                         min_ttc=_num(policy.get("min_ttc")))
+                         replay=text(raw.get("replay")), gif=inside(policy.get("gif")),
+                         tests=inside(cand.get("tests")), xosc=inside(cand.get("xosc")),
+                         min_ttc=num(policy.get("min_ttc")))
     out.anchor, out.number = anchors.get(out.scenario, (None, None))
     return out
 
@@ -114,18 +97,18 @@ def read_policy(run_dir: Path, folder: str, loaded, anchors: dict[str, tuple[str
         out.problem = loaded.problem
         return out
     data = loaded.value
-    out.policy = _text(data.get("policy")) or folder
+    out.policy = text(data.get("policy")) or folder
     settings = data.get("settings") if isinstance(data.get("settings"), dict) else {}
-    out.oracle = _text(settings.get("oracle"))
-    out.status = _text(data.get("status"))
+    out.oracle = text(settings.get("oracle"))
+    out.status = text(data.get("status"))
     out.budget = _int(data.get("budget")) or None
     out.tried = _int(data.get("tried"))
     out.simulated = _int(data.get("simulated")) if "simulated" in data else out.tried
     out.ungrounded = max(0, out.tried - out.simulated)
     out.invalid = max(0, _int(data.get("invalid")) - out.ungrounded)
     out.failures, out.errors = _int(data.get("failures")), _int(data.get("errors"))
-    out.wall = _num(data.get("wall"))
-    out.parameter_search = _text(data.get("parameter_search"))
+    out.wall = num(data.get("wall"))
+    out.parameter_search = text(data.get("parameter_search"))
     cands = data.get("candidates") if isinstance(data.get("candidates"), list) else []
     by_cid = {c["cid"]: c for c in cands if isinstance(c, dict) and isinstance(c.get("cid"), str)}
     findings = data.get("findings")

@@ -8,12 +8,11 @@ folder.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
-from pathlib import Path, PurePosixPath
+from pathlib import Path
 from typing import Any
 
-from regen.report.links import href
+from regen.report.links import href, inside_href, num, text
 from regen.runfolder import RunFolder, ScenarioFolder, behavior_test_name, read_json, read_tests
 
 __all__ = ["BehaviorTests", "CaseRow", "PolicyTests", "RateRow", "load_tests"]
@@ -134,37 +133,17 @@ class BehaviorTests:
     rates: list[RateRow] = field(default_factory=list)
 
 
-def _num(value: Any) -> float | None:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        return None
-    return float(value)
-
-
-def _text(value: Any) -> str:
-    return value if isinstance(value, str) else ""
-
-
-def _gif(base: Path, folder: str, value: Any) -> str | None:
-    """href of a picture named in tests.json, if it is a file inside the policy's folder."""
-    if not isinstance(value, str) or not value or "\\" in value:
-        return None
-    rel = PurePosixPath(value)
-    if rel.is_absolute() or ".." in rel.parts or not (base / rel).is_file():
-        return None
-    return href(RunFolder.TESTS, folder, *rel.parts)
-
-
 def _case(raw: dict[str, Any], base: Path, folder: str) -> CaseRow:
     status = raw.get("status")
     variant = raw.get("variant")
     return CaseRow(
-        scenario=_text(raw.get("scenario")) or "?",
+        scenario=text(raw.get("scenario")) or "?",
         variant=variant if isinstance(variant, int) and not isinstance(variant, bool) else 0,
         status=status if status in STATUSES else "unknown",
-        cause=_text(raw.get("cause")) or None, message=_text(raw.get("message")),
-        collision=raw.get("collision") is True, collision_with=_text(raw.get("collision_with")) or None,
-        min_ttc=_num(raw.get("min_ttc")), min_distance=_num(raw.get("min_distance")),
-        gif=_gif(base, folder, raw.get("gif")), causal=_text(raw.get("causal")) or None)
+        cause=text(raw.get("cause")) or None, message=text(raw.get("message")),
+        collision=raw.get("collision") is True, collision_with=text(raw.get("collision_with")) or None,
+        min_ttc=num(raw.get("min_ttc")), min_distance=num(raw.get("min_distance")),
+        gif=inside_href(base, raw.get("gif"), RunFolder.TESTS, folder), causal=text(raw.get("causal")) or None)
 
 
 def read_policy(run_dir: Path, folder: str, loaded) -> PolicyTests:
@@ -177,8 +156,8 @@ def read_policy(run_dir: Path, folder: str, loaded) -> PolicyTests:
         out.problem = loaded.problem
         return out
     data = loaded.value
-    out.policy = _text(data.get("policy")) or folder
-    out.oracle = _text(data.get("oracle"))
+    out.policy = text(data.get("policy")) or folder
+    out.oracle = text(data.get("oracle"))
     cases = data.get("cases")
     if not isinstance(cases, list):
         out.problem = "unreadable: no list of cases"

@@ -243,38 +243,32 @@ def read_graph(run: Path) -> Loaded:
     return read_model(Path(run) / RunFolder.GRAPH, ScenarioGraph)
 
 
-def read_tests(run: Path) -> dict[str, Loaded]:
-    """Behavior-test results of a run (``regen test``): policy folder name -> its
-    ``tests/<policy>/tests.json`` as a JSON object, sorted by name; a broken file gives a
-    problem, never an exception."""
-    base = Path(run) / RunFolder.TESTS
+def _per_policy(run: Path, section: str, file: str) -> dict[str, Loaded]:
+    """``RUN/<section>/<policy>/<file>`` of every policy folder that holds one, as a JSON object,
+    sorted by name; a broken file gives a problem, never an exception; none without the folder."""
+    base = Path(run) / section
     try:
-        found = sorted(p for p in base.iterdir() if (p / RunFolder.TESTS_JSON).exists())
-    except OSError:  # no tests/ folder (or an unreadable one): no behavior tests
+        found = sorted(p for p in base.iterdir() if (p / file).exists())
+    except OSError:  # no such folder (or an unreadable one): nothing
         return {}
     out = {}
     for p in found:
-        got = read_json(p / RunFolder.TESTS_JSON)
+        got = read_json(p / file)
         out[p.name] = got if not got.ok or isinstance(got.value, dict) else Loaded(
             problem="unreadable: not a JSON object")
     return out
+
+
+def read_tests(run: Path) -> dict[str, Loaded]:
+    """Behavior-test results of a run (``regen test``): policy folder name -> its
+    ``tests/<policy>/tests.json`` (see :func:`_per_policy`)."""
+    return _per_policy(run, RunFolder.TESTS, RunFolder.TESTS_JSON)
 
 
 def read_falsify(run: Path) -> dict[str, Loaded]:
     """Falsification results of a run (``regen falsify``): policy folder name -> its
-    ``falsify/<policy>/falsify.json`` as a JSON object, sorted by name; a broken file gives a
-    problem, never an exception."""
-    base = Path(run) / RunFolder.FALSIFY
-    try:
-        found = sorted(p for p in base.iterdir() if (p / RunFolder.FALSIFY_JSON).exists())
-    except OSError:  # no falsify/ folder (or an unreadable one): no falsification
-        return {}
-    out = {}
-    for p in found:
-        got = read_json(p / RunFolder.FALSIFY_JSON)
-        out[p.name] = got if not got.ok or isinstance(got.value, dict) else Loaded(
-            problem="unreadable: not a JSON object")
-    return out
+    ``falsify/<policy>/falsify.json`` (see :func:`_per_policy`)."""
+    return _per_policy(run, RunFolder.FALSIFY, RunFolder.FALSIFY_JSON)
 
 
 def behavior_test_name(scenario: str, variant: int | str) -> str:

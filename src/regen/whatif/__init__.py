@@ -23,11 +23,22 @@ A question in words (``--ask``) goes to the model, which answers with edits
 (:func:`ask_edits`): data validated by pydantic and by :func:`apply_edits`, never executed.
 """
 
-from regen.whatif.edits import Edit, Edits, apply_edits, ask_edits, cast_of, context_of, parse_set
+from regen.whatif.edits import (
+    Edit,
+    Edits,
+    actual_values,
+    apply_edits,
+    ask_edits,
+    cast_lines,
+    cast_of,
+    context_of,
+    parse_set,
+    path_pairs,
+)
 from regen.whatif.page import WHATIF_HTML, page
 from regen.whatif.record import WHATIF_JSON, WhatIf, changed_stages, stage_lines
 from regen.whatif.run import folder_name, judge_root, prepare, run_whatif
 
-__all__ = ["WHATIF_HTML", "WHATIF_JSON", "Edit", "Edits", "WhatIf", "apply_edits", "ask_edits", "cast_of", "context_of",
-           "changed_stages", "folder_name", "judge_root", "page", "parse_set", "prepare", "run_whatif",
+__all__ = ["WHATIF_HTML", "WHATIF_JSON", "Edit", "Edits", "WhatIf", "actual_values", "apply_edits", "ask_edits", "cast_lines", "cast_of", "context_of",
+           "changed_stages", "folder_name", "judge_root", "page", "parse_set", "path_pairs", "prepare", "run_whatif",
            "stage_lines"]

@@ -70,7 +70,17 @@ def context_of(scenario: Scenario, db: AssetDatabase) -> list[Any]:
     return [e for e in cast_of(scenario) if e.asset in db.assets and e.asset not in own]
 
 
-def _actual(entity: Any) -> dict[str, str]:
+def cast_lines(scenario: Scenario, db: AssetDatabase) -> list[str]:
+    """The cast a proposal may change (:func:`context_of`), for a prompt, one line each."""
+    out = []
+    for e in context_of(scenario, db):
+        props = ", ".join(f"{k} = {v}" for k, v in e.properties.items())
+        out.append(f"- {e.name}: a {e.asset.replace('_', ' ')}, {e.behavior or 'stationary'}"
+                   + (f" ({props})" if props else ""))
+    return out
+
+
+def actual_values(entity: Any) -> dict[str, str]:
     """What the original scenario's entity had: its behavior, states and behavior parameters."""
     out = {k: str(v) for k, v in entity.behavior_params.items() if isinstance(v, (str, int, float))}
     out.update({k: str(v) for k, v in entity.properties.items()})
@@ -79,7 +89,7 @@ def _actual(entity: Any) -> dict[str, str]:
     return out
 
 
-def _pairs(scenario: Scenario, path: CausePath) -> dict[str, int]:
+def path_pairs(scenario: Scenario, path: CausePath) -> dict[str, int]:
     """Scenario entity name -> index of its path entity (same asset, in order)."""
     used: set[int] = set()
     out: dict[str, int] = {}
@@ -99,11 +109,11 @@ def apply_edits(scenario: Scenario, path: CausePath, edits: list[Edit], db: Asse
     entity not in the chain, a property or value the asset does not have)."""
     from regen.core.graph import PathEntity
 
-    pairs = _pairs(scenario, path)
+    pairs = path_pairs(scenario, path)
     by_name = {e.name: e for e in cast_of(scenario)}
     entities = [pe.model_copy(deep=True) for pe in path.entities]
     for name, i in pairs.items():  # unchanged parts kept: the original's own values
-        actual = _actual(by_name[name])
+        actual = actual_values(by_name[name])
         for prop, values in entities[i].properties.items():
             if actual.get(prop) in values:
                 entities[i].properties[prop] = [actual[prop]]
@@ -188,7 +198,7 @@ def ask_edits(scenario: Scenario, question: str, llm: LLM, db: AssetDatabase) ->
     for e in context_of(scenario, db):
         values = {p: db.property_candidates(e.asset, p) for p in db.parameters_of(e.asset)
                   if p in db.properties or p == "behavior"}
-        have = _actual(e)
+        have = actual_values(e)
         cast.append({"name": e.name, "asset": e.asset,
                      "properties": {p: {"now": have.get(p), "values": v} for p, v in values.items() if v}})
     wording = domains.backend_class(scenario.domain).wording
@@ -199,4 +209,5 @@ def ask_edits(scenario: Scenario, question: str, llm: LLM, db: AssetDatabase) ->
     return list(got.value.edits)
 
 
-__all__ = ["Edit", "Edits", "apply_edits", "ask_edits", "cast_of", "context_of", "parse_set"]
+__all__ = ["Edit", "Edits", "actual_values", "apply_edits", "ask_edits", "cast_lines", "cast_of", "context_of", "parse_set",
+           "path_pairs"]
