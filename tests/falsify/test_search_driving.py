@@ -100,14 +100,14 @@ def test_a_candidate_in_which_the_scripted_ego_collides_is_invalid(driving_run, 
     from regen.harness import suite
     from regen.harness.cases import TemplateCheck
 
-    real = suite._template_check
+    real = suite.template_check
 
     def colliding(run):
         check = real(run)
         return TemplateCheck(verified=check.verified, status=check.status, collision=True,
                              message=f"{check.message}; the scripted ego collides: the ego hit child1")
 
-    monkeypatch.setattr(suite, "_template_check", colliding)
+    monkeypatch.setattr(suite, "template_check", colliding)
     report = run_falsify(driving_run, "constant-speed", budget=1, out=tmp_path / "fz", pictures=False,
                          param_budget=0)
     (rec,) = report.candidates

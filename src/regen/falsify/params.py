@@ -166,15 +166,12 @@ def _values(scenario: Scenario, keys: list[Key]) -> dict[str, dict[str, float]]:
 
 def _template(run: TemplateRun) -> tuple[bool, dict[str, Any]]:
     """Whether the variant tests anything (the scripted robot verified and hit nothing), and its
-    run in words."""
-    if run.verdict is None:
-        return False, {"status": "simulation_failed", "collision": False,
-                       "message": f"the scripted robot's simulation failed: {run.error}"}
-    message = run.verdict.reason
-    if run.collisions:
-        message = f"{message}; the scripted robot collides: {'; '.join(run.collisions)}"
-    return bool(run.verdict.feasible and not run.collisions), {
-        "status": run.verdict.status, "collision": bool(run.collisions), "message": message}
+    run in words (``regen test``'s own check)."""
+    from regen.harness.suite import template_check
+
+    check = template_check(run)
+    return check.verified and not check.collision, {
+        "status": check.status, "collision": check.collision, "message": check.message}
 
 
 def _scenario(candidate_run: Path, name: str | None) -> tuple[str, Scenario]:
@@ -246,14 +243,12 @@ class _Search:
 
     def run_policy(self, scenario: Scenario, k: int, template_trace: Any) -> CaseResult:
         """The policy in one variant, judged as ``regen test`` judges a case."""
-        from regen.harness.oracle import judge
+        from regen.harness.suite import run_case
 
         self.remote.ensure_fresh()  # a policy that faulted in the last variant starts afresh
-        prepared = self.harness.prepare(scenario)
-        t0 = time.perf_counter()
-        episode = self.harness.run_policy(prepared, self.remote, step_timeout=self.step_timeout)
-        return judge(self.harness, scenario, episode, folder=self.name, variant=k,
-                     wall=time.perf_counter() - t0, oracle=self.oracle, template_trace=template_trace)
+        case, _, _ = run_case(self.harness, self.remote, scenario, name=self.name, variant=k,
+                              timeout=self.step_timeout, oracle=self.oracle, template_trace=template_trace)
+        return case
 
 
 def _summary(variants: list[dict[str, Any]]) -> dict[str, Any]:

@@ -64,7 +64,8 @@ def open_suite(run_dir: str | Path) -> tuple[Any, str, PolicyHarness]:
     return rf, domain, harness_for(domain)
 
 
-def _template_check(run: TemplateRun) -> TemplateCheck:
+def template_check(run: TemplateRun) -> TemplateCheck:
+    """The scripted robot's run in a variant, as a case records it (verified, collided, why)."""
     if run.verdict is None:
         return TemplateCheck(verified=False, status="simulation_failed",
                              message=f"the scripted robot's simulation failed: {run.error}")
@@ -102,7 +103,7 @@ def _variant_cases(harness: PolicyHarness, name: str, scenario: Scenario, verdic
         except Exception as exc:  # noqa: BLE001 - one broken scenario is one error case
             yield _error_case(name, scenario.id, k, adversarial, exc)
             continue
-        check = _template_check(template)
+        check = template_check(template)
         base = {"parameters": _numeric(variant.parameters), "adversarial": adversarial, "template": check}
         if not check.verified or (adversarial and check.collision):
             what = "does not verify" if not check.verified else "collides"
@@ -221,6 +222,19 @@ def run_tests(run_dir: str | Path, policy_spec: str, *, variants: int = 1, seed:
     return report
 
 
+def run_case(harness: PolicyHarness, policy: Any, scenario: Scenario, *, name: str, variant: int, timeout: float,
+             oracle: str, template_trace: Trace | None) -> tuple[CaseResult, Any, Any]:
+    """One episode of ``policy`` (a callable, or the PolicyProcess running it) in ``scenario``,
+    judged by the oracle: (the case, the episode, what the harness prepared). Exceptions of the
+    harness propagate (the caller makes them an error case)."""
+    prepared = harness.prepare(scenario)
+    t0 = time.perf_counter()
+    episode = harness.run_policy(prepared, policy, step_timeout=timeout)
+    case = judge(harness, scenario, episode, folder=name, variant=variant, wall=time.perf_counter() - t0,
+                 oracle=oracle, template_trace=template_trace)
+    return case, episode, prepared
+
+
 @dataclass
 class _Suite:
     """One call of :func:`run_tests` once its policy runs: the cases of each scenario folder,
@@ -302,11 +316,8 @@ class _Suite:
             self.remote.ensure_fresh()  # a policy that faulted in the last case starts afresh
         pol = self.policy if self.policy is not None else self.remote
         try:
-            prep = self.harness.prepare(scenario)
-            t0 = time.perf_counter()
-            episode = self.harness.run_policy(prep, pol, step_timeout=self.timeout)
-            case = judge(self.harness, scenario, episode, folder=name, variant=k,
-                         wall=time.perf_counter() - t0, oracle=self.oracle, template_trace=template_trace)
+            case, episode, prep = run_case(self.harness, pol, scenario, name=name, variant=k, timeout=self.timeout,
+                                           oracle=self.oracle, template_trace=template_trace)
             for key, value in base.items():
                 setattr(case, key, value)
             if self.on_episode is not None:  # e.g. keep the failed episode's trace and picture
@@ -325,4 +336,4 @@ class _Suite:
             self.on_case(case)
 
 
-__all__ = ["harness_for", "open_suite", "run_domain", "run_tests"]
+__all__ = ["harness_for", "open_suite", "run_case", "run_domain", "run_tests", "template_check"]
