@@ -61,13 +61,19 @@ def plain(text: str) -> str:
     return " ".join(text.lower().replace("-", " ").split())
 
 
+@lru_cache(maxsize=4096)
+def _phrase_pattern(phrase: str) -> re.Pattern[str]:
+    """The whole-word pattern of a state phrase (compiled once: the database's phrases are few)."""
+    return re.compile(rf"\b{re.escape(plain(phrase))}\b")
+
+
 def phrases_in(event: str, named_by: dict[str, dict[str, list[str]]]) -> list[tuple[str, str, str]]:
     """(key, state, phrase) for every phrase of ``named_by`` (key -> state -> phrases) in
     ``event``: whole words, any case, the longest phrase where they overlap."""
     text = plain(event)
     found = [(m.start(), m.end(), key, st, ph) for key, states in named_by.items()
              for st, phrases in states.items()
-             for ph in phrases for m in re.finditer(rf"\b{re.escape(plain(ph))}\b", text)]
+             for ph in phrases for m in _phrase_pattern(ph).finditer(text)]
     out: list[tuple[str, str, str]] = []
     for a0, a1, key, st, ph in sorted(found, key=lambda f: f[0] - f[1]):
         if any(b0 <= a0 and a1 <= b1 and (b0, b1) != (a0, a1) for b0, b1, *_ in found):

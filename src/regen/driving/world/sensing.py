@@ -22,6 +22,7 @@ Imports: this package's triggers and plans only.
 
 from __future__ import annotations
 
+import functools
 import inspect
 from dataclasses import dataclass
 
@@ -113,8 +114,10 @@ def ego_clock(sensing, reacted, t, sensor_time):
     return reacted, t_event + (t - reacted - delay)
 
 
+@functools.cache
 def scenic_source() -> str:
-    """:func:`perceived_error` and :func:`ego_clock` as program text, for the Scenic program."""
+    """:func:`perceived_error` and :func:`ego_clock` as program text, for the Scenic program
+    (read once per process: ``inspect.getsource`` tokenizes the module each time)."""
     return "\n\n".join(inspect.getsource(f) for f in (perceived_error, ego_clock))
 
 

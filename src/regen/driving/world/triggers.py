@@ -43,6 +43,7 @@ property states (:mod:`regen.driving.simulation.record`) and a policy's observat
 
 from __future__ import annotations
 
+import functools
 import inspect
 import math
 from dataclasses import dataclass
@@ -147,8 +148,10 @@ def fire_times(spec: Spec | None, times: list[float], xs: list[float], ys: list[
     return out
 
 
+@functools.cache
 def scenic_source() -> str:
-    """The constants and functions above as program text, for the Scenic program."""
+    """The constants and functions above as program text, for the Scenic program (read once per
+    process: ``inspect.getsource`` tokenizes the module each time)."""
     consts = ("MIN_SPEED", "HOLD", "NEAR_TOL", "TTA_TOL", "TIME_TOL")
     lines = [f"{name} = {globals()[name]!r}" for name in consts]
     return "\n".join(lines) + "\n\n\n" + "\n\n".join(inspect.getsource(f) for f in (trigger_fired, warped_time))
