@@ -23,4 +23,21 @@ export CMAKE_ARGS="${CMAKE_ARGS:--DLLAVA_BUILD=OFF -DGGML_NATIVE=OFF -DGGML_AVX=
 # pin other numpy and lxml versions: they get a virtual environment of their own.
 [ -d .venv-qc ] || "$PYTHON" -m venv .venv-qc
 .venv-qc/bin/python -m pip install --quiet --progress-bar off asam-qc-opendrive==1.0.0 asam-qc-openscenarioxml==1.0.0
+# LeRobot's own loader (LeRobotDataset reads back what `regen dataset --format lerobot` writes)
+# gets a virtual environment of its own: lerobot 0.6.1 needs Python >= 3.12, so 0.4.4 (Python
+# 3.10+, reads the v3.0 layout); its loader imports torchvision, and the only torchvision for the
+# project's CPU torch 2.13.0 (0.28.0) links CUDA libraries that torch lacks, so this one has torch
+# 2.14.1 with torchvision 0.29.1. lerobot 0.4.4 declares torch<2.11 and datasets<5 yet reads the
+# dataset with these: it is installed with --no-deps on purpose, its dependencies listed by hand.
+# No regen in it: the loader script regen runs there imports only lerobot. About a minute and
+# 6.5 GB (torch with its CUDA libraries), so only on request: WITH_LEROBOT=1, and always in CI.
+if [ "${WITH_LEROBOT:-0}" = "1" ] || [ "${CI:-}" = "true" ]; then
+  [ -d .venv-lerobot ] || "$PYTHON" -m venv .venv-lerobot
+  .venv-lerobot/bin/python -m pip install --quiet --progress-bar off torch==2.14.1 torchvision==0.29.1 accelerate \
+    jsonlines "packaging<26" draccus==0.10.0 "einops<0.9" "av<16" termcolor deepdiff "imageio[ffmpeg]" \
+    "gymnasium>=1.1.1,<2" "datasets==5.2.0" pyarrow==26.0.1
+  .venv-lerobot/bin/python -m pip install --quiet --progress-bar off --no-deps lerobot==0.4.4
+else
+  echo "LeRobot's loader not installed (6.5 GB): WITH_LEROBOT=1 bash setup.sh adds .venv-lerobot"
+fi
 echo "setup done: activate with '. .venv/bin/activate' or call .venv/bin/regen"

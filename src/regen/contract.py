@@ -403,8 +403,9 @@ class DomainBackend(ABC):
 
     def write_episodes(self, run_dirs: list[Path], out: Path) -> dict[str, Any]:
         """Write the verified scenarios of ``run_dirs`` (this domain's runs) as robot-learning
-        episodes at ``out`` (``regen dataset --format lerobot``); what was written. Default:
-        ConfigError, the domain writes none."""
+        episodes at ``out`` (``regen dataset --format lerobot``); what was written, and under
+        ``check`` a ``note`` saying how a reader of the format was run over it (or why not), which
+        the command prints. Default: ConfigError, the domain writes none."""
         from regen.errors import ConfigError
 
         raise ConfigError(f"the {self.name} domain writes no robot-learning episodes (--format lerobot)")

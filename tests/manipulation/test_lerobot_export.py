@@ -1,11 +1,12 @@
 """Verified manipulation scenarios as a LeRobot v3 dataset: the layout, the columns, one episode
-per verified scenario, byte-identical rewrites; and LeRobotDataset reads it (when installed)."""
+per verified scenario, byte-identical rewrites; and LeRobot's own LeRobotDataset reads it, run in
+LeRobot's environment (.venv-lerobot: skipped where it is missing, failed on CI)."""
 
 from __future__ import annotations
 
 import json
+import re
 import shutil
-import sys
 from pathlib import Path
 
 import pytest
@@ -143,36 +144,42 @@ def test_a_folder_that_is_not_a_dataset_is_not_replaced(door_run, tmp_path: Path
     assert (tmp_path / "mine" / "notes.txt").read_text() == "keep"
 
 
-def test_lerobot_dataset_reads_it(dataset, monkeypatch: pytest.MonkeyPatch) -> None:
-    if sys.version_info < (3, 12):
-        pytest.skip("lerobot 0.6.1 needs Python >= 3.12 (its sources use PEP 695 syntax)")
-    pytest.importorskip("lerobot", reason="the 'lerobot' extra is not installed")
-    monkeypatch.setenv("HF_HUB_OFFLINE", "1")  # a local root: nothing is fetched from the Hub
-    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+def test_lerobot_dataset_reads_it(dataset, lerobot_python) -> None:
+    """LeRobot's own LeRobotDataset, run in its environment (.venv-lerobot), reads every frame
+    of both episodes, with the shapes and the task written."""
+    from regen.manipulation.export.lerobot_check import agrees, check_lerobot
 
     out, summary = dataset
-    ds = LeRobotDataset(repo_id="regen/open-door", root=out)
-    assert len(ds) == summary["frames"] and ds.num_episodes == 2 and ds.fps == 12
-    item = ds[0]
-    assert tuple(item["observation.state"].shape) == (9,) and tuple(item["action"].shape) == (9,)
-    assert tuple(item["observation.environment_state"].shape) == (13,)
-    assert tuple(item["observation.images.scene"].shape) == (3, 128, 128)
-    assert tuple(item["observation.images.wrist"].shape) == (3, 128, 128)
-    assert item["task"] == summary["tasks"][0]
+    got = check_lerobot(out, repo_id="regen/open-door")
+    assert got["frames"] == got["rows"] == summary["frames"] and got["episodes"] == 2 and got["fps"] == 12
+    assert got["features"] == list(json.loads((out / "meta" / "info.json").read_text())["features"])
+    for item in (got["first"], got["last"]):
+        assert item["observation.state"] == [9] and item["action"] == [9]
+        assert item["observation.environment_state"] == [13]
+        assert item["observation.images.scene"] == item["observation.images.wrist"] == [3, 128, 128]
+    assert got["last_index"] == summary["frames"] - 1
+    assert got["task"] == summary["tasks"][0]
+    assert agrees(got, summary) == []
+    assert sorted(str(p.relative_to(out)) for p in out.rglob("*") if p.is_file()) == sorted(FILES)  # read only
 
 
-def test_regen_dataset_format_lerobot_writes_the_same_episodes(door_run: Path, dataset, tmp_path: Path) -> None:
+def test_regen_dataset_format_lerobot_writes_the_same_episodes(door_run: Path, dataset, tmp_path: Path,
+                                                               monkeypatch: pytest.MonkeyPatch) -> None:
     """The command users run (``regen dataset RUN --format lerobot``) writes what write_lerobot
-    writes; a manipulation run without --format lerobot, or lerobot beside another format, is
-    refused with what to pass (exit 2)."""
+    writes, and says it was not checked where LeRobot's environment is missing; a manipulation
+    run without --format lerobot, or lerobot beside another format, is refused with what to pass
+    (exit 2)."""
     from typer.testing import CliRunner
 
     from regen.cli import app
 
     out, _ = dataset
+    monkeypatch.setenv("REGEN_LEROBOT_VENV", str(tmp_path / "no-venv"))
     res = CliRunner().invoke(app, ["dataset", str(door_run), "--out", str(tmp_path / "ds"), "--format", "lerobot"])
     assert res.exit_code == 0, res.output
     assert "LeRobot v3 dataset" in res.output
+    assert (f"not checked with LeRobot's loader: {tmp_path / 'no-venv'} (REGEN_LEROBOT_VENV) not found: "
+            "setup.sh creates .venv-lerobot") in res.output
     for f in FILES:
         assert (tmp_path / "ds" / f).read_bytes() == (out / f).read_bytes(), f
     res = CliRunner().invoke(app, ["dataset", str(door_run), "--out", str(tmp_path / "vla")])
@@ -180,3 +187,38 @@ def test_regen_dataset_format_lerobot_writes_the_same_episodes(door_run: Path, d
     res = CliRunner().invoke(app, ["dataset", str(door_run), "--out", str(tmp_path / "x"), "--format", "lerobot",
                                    "--format", "llava"])
     assert res.exit_code == 2 and "written alone" in res.output, res.output
+
+
+def test_regen_dataset_format_lerobot_checks_with_lerobot(door_run: Path, dataset, lerobot_python: Path,
+                                                          tmp_path: Path) -> None:
+    """Where LeRobot's environment is installed, the command reads the dataset back with
+    LeRobotDataset and says so."""
+    from typer.testing import CliRunner
+
+    from regen.cli import app
+
+    _, summary = dataset
+    res = CliRunner().invoke(app, ["dataset", str(door_run), "--out", str(tmp_path / "ds"), "--format", "lerobot"])
+    assert res.exit_code == 0, res.output
+    assert re.search(rf"checked with LeRobot \S+'s LeRobotDataset: 2 episodes, {summary['frames']} frames at 12 fps",
+                     res.output), res.output
+
+
+def test_regen_dataset_format_lerobot_fails_when_lerobot_cannot_read_it(door_run: Path, tmp_path: Path,
+                                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A loader that fails is an error (exit 2) naming the dataset and ending with its stderr,
+    not a note (a stand-in python plays the failing loader)."""
+    from typer.testing import CliRunner
+
+    from regen.cli import app
+
+    venv = tmp_path / "venv"
+    (venv / "bin").mkdir(parents=True)
+    (venv / "bin" / "python").write_text("#!/bin/sh\necho 'ValueError: no such feature' >&2\nexit 1\n")
+    (venv / "bin" / "python").chmod(0o755)
+    monkeypatch.setenv("REGEN_LEROBOT_VENV", str(venv))
+    res = CliRunner().invoke(app, ["dataset", str(door_run), "--out", str(tmp_path / "ds"), "--format", "lerobot"])
+    assert res.exit_code == 2, res.output
+    assert f"the LeRobot dataset was written at {tmp_path / 'ds'}, but LeRobot's LeRobotDataset could not read" \
+        in " ".join(res.output.split()), res.output
+    assert "ValueError: no such feature" in res.output

@@ -75,6 +75,8 @@ def _episodes(runs: list[str], out_dir, fmt: list[str]) -> None:
                       ": " + "; ".join(shown(str(s)) for s in got["skipped"]) if got.get("skipped") else ""))
     console.print(f"LeRobot v3 dataset: {shown(str(out_dir))} (meta/info.json, meta/tasks.parquet, "
                   "meta/episodes/, data/)")
+    if (got.get("check") or {}).get("note"):
+        console.print(shown(str(got["check"]["note"])))
 
 
 __all__ = ["dataset_command"]

@@ -184,10 +184,15 @@ class ManipulationBackend(DomainBackend):
                            "by simulation")
 
     def write_episodes(self, run_dirs: list[Path], out: Path) -> dict:
-        """The LeRobot v3 layout (:func:`regen.manipulation.export.lerobot.write_lerobot`)."""
+        """The LeRobot v3 layout (:func:`regen.manipulation.export.lerobot.write_lerobot`), then
+        read back by LeRobot's own loader where its environment (``.venv-lerobot``) is installed:
+        the outcome under ``check`` (:func:`regen.manipulation.export.lerobot_check.check_written`;
+        LeRobotCheckError when the loader fails)."""
         from regen.manipulation.export.lerobot import write_lerobot
+        from regen.manipulation.export.lerobot_check import check_written
 
-        return write_lerobot(run_dirs, out)
+        written = write_lerobot(run_dirs, out)
+        return {**written, "check": check_written(out, written)}
 
     def policy_harness(self):
         from regen.manipulation.testing.harness import ManipulationHarness

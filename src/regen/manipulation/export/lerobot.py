@@ -1,7 +1,8 @@
 """Verified manipulation scenarios as a LeRobot v3 dataset (``codebase_version`` v3.0), written
 with pyarrow alone (LeRobot itself is needed only to read it).
 
-Layout (that of ``lerobot`` 0.6.1, ``lerobot.datasets.utils``)::
+Layout (that of ``lerobot`` 0.6.1, ``lerobot.datasets.utils``; read back by 0.4.4's own loader,
+:mod:`regen.manipulation.export.lerobot_check`)::
 
     meta/info.json                          fps, features (dtype, shape, names), path templates
     meta/stats.json                         per feature: min, max, mean, std, count, q01 .. q99
