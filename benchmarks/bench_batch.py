@@ -1,5 +1,10 @@
 """Batch efficiency: `regen batch` with replayed answers on 1 and 2 workers, on the local process
-pool and on a local Ray instance, through the same function the CLI runs (regen.batch.run_batch).
+pool and on a local Ray cluster, through the same function the CLI runs (regen.batch.run_batch).
+
+Ray: for each worker count n a head is started on loopback with n CPUs (`ray start --head
+--num-cpus=n`, as a user's cluster is already running when a batch starts) and the batch is sent to
+its address (`--ray HOST:PORT`); the cluster's start is timed apart and not counted. The batch's
+wall time still holds the driver's connection and the cold Ray worker processes (their imports).
 
 The batch is made from finished run folders (their behaviors, settings and model caches): each
 becomes one entry of a spec, its llm-cache.sqlite copied into the batch's run folder, so nothing
@@ -15,9 +20,15 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import shutil
+import signal
+import socket
+import subprocess
+import sys
 import tempfile
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import yaml
@@ -75,6 +86,47 @@ def one_batch(entries: list[dict], caches: list[Path], *, workers: int, ray: str
         return wall, sum(v["feasible"] for v in verdicts), len(verdicts)
 
 
+@contextmanager
+def local_cluster(cpus: int):
+    """A Ray head on loopback with ``cpus`` CPUs (`ray start --head --block` in its own process
+    group, stopped at the end); yields its address and the seconds it took to answer."""
+    ray_bin = Path(sys.executable).with_name("ray")
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    temp = Path(f"/tmp/rb{os.getpid()}")  # Ray's socket paths must stay short
+    env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0"}
+    t0 = time.perf_counter()
+    proc = subprocess.Popen([str(ray_bin), "start", "--head", "--block", f"--port={port}", f"--num-cpus={cpus}",
+                             "--include-dashboard=false", "--node-ip-address=127.0.0.1", "--disable-usage-stats",
+                             f"--temp-dir={temp}"], env=env, start_new_session=True,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        while True:
+            if proc.poll() is not None:
+                raise SystemExit("the Ray head did not start")
+            with socket.socket() as sock:
+                if sock.connect_ex(("127.0.0.1", port)) == 0:
+                    break
+            if time.perf_counter() - t0 > 120:
+                raise SystemExit("the Ray head did not open its port in 120 s")
+            time.sleep(0.2)
+        address = f"127.0.0.1:{port}"
+        ready = ("import ray, sys, time\nray.init(address=sys.argv[1], logging_level='ERROR')\n"
+                 "t = time.time()\nwhile ray.available_resources().get('CPU', 0) < int(sys.argv[2]) "
+                 "and time.time() - t < 120:\n    time.sleep(0.2)\n")
+        subprocess.run([sys.executable, "-c", ready, address, str(cpus)], env=env, check=True, timeout=200,
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        yield address, time.perf_counter() - t0
+    finally:
+        os.killpg(proc.pid, signal.SIGTERM)
+        try:
+            proc.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+        shutil.rmtree(temp, ignore_errors=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=Path, required=True, help="a folder of finished run folders (each with run.json)")
@@ -86,14 +138,19 @@ def main() -> None:
     entries, caches = spec_from_runs(runs, args.pictures)
     entries, caches = entries[:args.limit], caches[:args.limit]
     print(f"batch of {len(entries)} behaviors from {args.runs} (pictures: {args.pictures}), replayed answers")
-    executors = [("pool", None)] + ([] if args.no_ray else [("ray", "auto")])
-    for label, ray in executors:
+    for label in ["pool"] + ([] if args.no_ray else ["ray"]):
         walls = {}
         for n in (1, 2):
-            wall, ok, total = one_batch(entries, caches, workers=n, ray=ray)
+            if label == "pool":
+                wall, ok, total = one_batch(entries, caches, workers=n, ray=None)
+                extra = ""
+            else:
+                with local_cluster(n) as (address, started):
+                    wall, ok, total = one_batch(entries, caches, workers=n, ray=address)
+                extra = f" (the cluster's start, not counted: {started:.1f} s)"
             walls[n] = wall
             print(f"{label}: {n} worker(s): {wall:.1f} s wall, {ok}/{total} verified, "
-                  f"{ok / (wall / 60) / n:.1f} verified per core-minute")
+                  f"{ok / (wall / 60) / n:.1f} verified per core-minute{extra}")
         print(f"{label}: efficiency per added worker T(1)/(2 T(2)) = {walls[1] / (2 * walls[2]):.2f}")
 
 
