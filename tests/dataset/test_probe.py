@@ -236,3 +236,21 @@ def test_a_rerun_replays_the_cached_answers_into_the_same_files(tmp_path: Path) 
     res = probe_dataset(ds, always("yield"), out=tmp_path / "probe", replay=True)
     assert res.score.overall.accuracy == 1.0
     assert {n: (tmp_path / "probe" / n).read_bytes() for n in first} == first
+
+
+def test_a_long_probe_tells_its_progress_in_a_log(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Not a terminal (a log, CI): one line every 10 answers and at the end, with the count of
+    correct answers so far; the library hook sees every answer in order."""
+    ds = write_dataset(tmp_path / "ds")  # 16 scored questions
+    fake = FakeLocal(lambda m: {"answer": "stop"})
+    monkeypatch.setitem(registry._FACTORIES, "local", lambda model, **kw: fake)
+    res = CliRunner().invoke(app, ["probe", str(ds), "--llm", "local"])
+    assert res.exit_code == 0, res.output
+    lines = [ln for ln in res.output.splitlines() if "answered" in ln]
+    assert [re.search(r"(\d+)/16 answered", ln).group(1) for ln in lines] == ["10", "16"]
+    sc = probe_dataset(ds, always("stop"), out=tmp_path / "again").score
+    assert lines[-1].endswith(f"16/16 answered, {sc.overall.correct} correct so far")
+    seen: list[tuple[int, int, bool | None]] = []
+    probe_dataset(ds, always("stop"), out=tmp_path / "hook", on_answer=lambda d, n, a: seen.append((d, n, a.correct)))
+    assert [d for d, _, _ in seen] == list(range(1, 17)) and {n for _, n, _ in seen} == {16}
+    assert sum(c is True for _, _, c in seen) == sc.overall.correct

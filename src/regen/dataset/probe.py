@@ -13,7 +13,8 @@ would be guessing). Scores, the planning confusion matrix and the counterfactual
 from __future__ import annotations
 
 import re
-from collections.abc import Sequence
+import threading
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
@@ -272,11 +273,13 @@ def default_out(dataset: str | Path, provider: str) -> Path:
 
 def probe_dataset(dataset: str | Path, llm: LLM | Provider | str, *, out: str | Path | None = None,
                   text_only: bool = False, privileged: bool = False, layers: Sequence[str] | str | None = None,
-                  limit: int | None = None, replay: bool = False) -> ProbeResult:
+                  limit: int | None = None, replay: bool = False,
+                  on_answer: Callable[[int, int, Asked], None] | None = None) -> ProbeResult:
     """Ask ``llm`` each scored question of ``dataset`` (the first ``limit`` of the chosen
     ``layers``) and score the answers; write ``probe.json``, ``report.md`` and the planning
     confusion matrix ``confusion_planning.png`` into ``out`` (default ``DATASET/probe-<provider>``).
-    A provider or name given instead of a client gets one caching in ``out/llm-cache.sqlite``."""
+    A provider or name given instead of a client gets one caching in ``out/llm-cache.sqlite``.
+    ``on_answer(done, total, asked)`` is called after each question is answered (progress)."""
     chosen = parse_layers(layers)
     if limit is not None and limit < 1:
         raise ConfigError(f"--limit must be 1 or more, not {limit}")
@@ -289,17 +292,17 @@ def probe_dataset(dataset: str | Path, llm: LLM | Provider | str, *, out: str | 
     if out_dir.exists() and not out_dir.is_dir():
         raise ConfigError(f"--out {out_dir} is a file; give a folder for the probe's results")
     if isinstance(llm, LLM):
-        return _probe(data, llm, out_dir, chosen, text_only, privileged, limit)
+        return _probe(data, llm, out_dir, chosen, text_only, privileged, limit, on_answer)
     out_dir.mkdir(parents=True, exist_ok=True)
     client = LLM(llm, cache=out_dir / CACHE, replay=replay)
     try:
-        return _probe(data, client, out_dir, chosen, text_only, privileged, limit)
+        return _probe(data, client, out_dir, chosen, text_only, privileged, limit, on_answer)
     finally:
         client.cache.close()
 
 
 def _probe(data: Dataset, llm: LLM, out: Path, layers: tuple[str, ...], text_only: bool, privileged: bool,
-           limit: int | None) -> ProbeResult:
+           limit: int | None, on_answer: Callable[[int, int, Asked], None] | None = None) -> ProbeResult:
     from regen.dataset.probe_score import write_results
 
     mode = mode_for(llm.provider, text_only=text_only, privileged=privileged)
@@ -307,7 +310,17 @@ def _probe(data: Dataset, llm: LLM, out: Path, layers: tuple[str, ...], text_onl
             for q in data.questions if q.layer in layers]
     todo = [q for q in data.questions if q.layer in layers and q.key is not None and q.key in q.options]
     todo = todo[:limit] if limit is not None else todo
-    answered = {a.qa_id: a for a in llm.map(lambda q: ask(llm, data, q, mode), todo)}
+    lock, done = threading.Lock(), [0]
+
+    def one(q: Question) -> Asked:
+        got = ask(llm, data, q, mode)
+        if on_answer is not None:
+            with lock:  # remote providers answer concurrently
+                done[0] += 1
+                on_answer(done[0], len(todo), got)
+        return got
+
+    answered = {a.qa_id: a for a in llm.map(one, todo)}
     result = ProbeResult(dataset=data, provider=llm.provider.id, mode=mode, layers=layers,
                          rows=[answered.get(r.qa_id, r) for r in rows], out=out)
     write_results(result)

@@ -64,9 +64,20 @@ def probe_command(
         console.print(mode.note)
     asked = sum(q.layer in chosen and q.key is not None for q in data.questions)
     asked = min(asked, limit) if limit is not None else asked
-    with err_console.status(f"asking {client.provider.id} {asked} questions"):
+    what = f"asking {client.provider.id} {asked} questions"
+    with err_console.status(what) as status:
+        def progress(done: int, total: int, got) -> None:
+            right = sum(r is True for r in tally) + (got.correct is True)
+            tally.append(got.correct)
+            line = f"{what}: {done}/{total} answered, {right} correct so far"
+            if err_console.is_terminal:
+                status.update(line)
+            elif done == total or done % 10 == 0:  # a log gets a line every 10 answers
+                err_console.print(line)
+
+        tally: list[bool | None] = []
         result = probe_dataset(dataset, client, out=out_dir, text_only=text_only, privileged=privileged,
-                               layers=chosen, limit=limit)
+                               layers=chosen, limit=limit, on_answer=progress)
     sc = result.score
     assert sc is not None
     table = Table(title=f"probe of {shown(data.path.name)} with {shown(result.provider)} "
