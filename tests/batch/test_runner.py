@@ -105,3 +105,48 @@ def test_a_bad_spec_is_one_line_on_the_command_line_and_nothing_is_written(tmp_p
     assert res.exit_code == 2 and "Traceback" not in res.output
     assert "behaviors entry 1" in res.output and "unknown domain 'drivng'" in res.output
     assert not out.exists()
+
+
+def _draw_where(real):
+    """draw_png that also notes which process drew the picture (beside it)."""
+    import os
+
+    def draw(graph, path):
+        Path(str(path) + ".pid").write_text(str(os.getpid()))
+        return real(graph, path)
+
+    return draw
+
+
+def refuse_to_draw(folder: str) -> list[str]:
+    raise RuntimeError("no display here")
+
+
+def test_a_batch_draws_each_graph_in_a_worker_and_the_report_waits_for_it(tmp_path, fake_driving,
+                                                                          monkeypatch, caplog) -> None:
+    """The graph's pictures are a task (off the process that asks the model), done before the
+    run's report; where that task fails, this process draws them: no picture is lost."""
+    import os
+
+    from regen.expand import run as expand_run
+    from regen.pipeline import run as pipeline_run
+
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(_spec(tmp_path).read_text().replace("pictures: false", "pictures: true"))
+    monkeypatch.setattr(expand_run, "draw_png", _draw_where(expand_run.draw_png))
+    rec = run_batch(spec, tmp_path / "batch", workers=2)
+    assert rec.status == "done"
+    for b in rec.behaviors:
+        run = tmp_path / "batch" / b.folder
+        assert (run / "graph.png").stat().st_size > 0 and (run / "graph.html").is_file()
+        assert int((run / "graph.png.pid").read_text()) != os.getpid()  # a worker drew it
+        assert "graph.png" in (run / "report.html").read_text()
+
+    monkeypatch.setattr(pipeline_run, "draw_graph_files", refuse_to_draw)
+    spec.write_text(spec.read_text().replace("scenarios: 2", "scenarios: 1"))
+    rec = run_batch(spec, tmp_path / "again", workers=2)
+    assert rec.status == "done"
+    for b in rec.behaviors:
+        run = tmp_path / "again" / b.folder
+        assert int((run / "graph.png.pid").read_text()) == os.getpid() and (run / "graph.html").is_file()
+    assert "the graph's pictures were not drawn by the worker (no display here); drawing them here" in caplog.text

@@ -32,6 +32,14 @@ def save_graph(graph: ScenarioGraph, out: Path, *, pictures: bool = True) -> dic
     return files
 
 
+def draw_graph_files(folder: str) -> list[str]:
+    """graph.png and graph.html of the graph.json in ``folder``: the graph's pictures drawn where
+    a task runs (a batch's worker), off the process that asks the model; the files written."""
+    out = Path(folder)
+    graph = load_graph(out / "graph.json")
+    return [str(draw_png(graph, out / "graph.png")), str(write_html(graph, out / "graph.html"))]
+
+
 def load_graph(path: Path) -> ScenarioGraph:
     try:
         return ScenarioGraph.model_validate_json(path.read_text("utf-8"))

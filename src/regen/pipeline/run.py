@@ -13,8 +13,10 @@ from __future__ import annotations
 
 import contextlib
 import json
+import logging
 import time
 from collections.abc import Callable, Collection
+from concurrent.futures import Future
 from pathlib import Path
 from typing import Any
 
@@ -26,7 +28,7 @@ from regen.core.io import cannot_write, storage_error, write_json
 from regen.core.verdict import Verdict
 from regen.errors import RegenError
 from regen.expand.expansion import expand as expand_behavior
-from regen.expand.run import save_graph
+from regen.expand.run import draw_graph_files, save_graph
 from regen.interrupts import Interrupts
 from regen.llm.client import LLM
 from regen.pipeline.stages import (
@@ -48,6 +50,8 @@ from regen.runfolder import (
     merge_usage,
     now,
 )
+
+log = logging.getLogger(__name__)
 
 
 def select_paths(paths: list[CausePath], k: int, *, first: Collection[str] = ()) -> list[CausePath]:
@@ -131,6 +135,7 @@ class MainJob:
         self.earlier_usage = dict(manifest.usage)  # of the invocations before this one
         self.outcomes: list[ScenarioOutcome] = []
         self.graph: ScenarioGraph | None = None
+        self.graph_pictures: Future | None = None  # the graph's pictures drawn as a task (a batch)
         self.disk_full = False  # the run folder took no more (a full disk, a read-only folder)
 
     # --- progress ----------------------------------------------------------------------------
@@ -195,7 +200,13 @@ class MainJob:
         if graph.stop_reason and "interrupted" in graph.stop_reason:
             raise KeyboardInterrupt
         self.interrupts.check()
-        save_graph(graph, run.path, pictures=settings.pictures)
+        if self.tasks is not None and settings.pictures:
+            # a batch: the pictures are drawn by a worker while this process asks the model for
+            # the next behavior; the report waits for them (:meth:`_graph_drawn`)
+            save_graph(graph, run.path, pictures=False)
+            self.graph_pictures = self.tasks.submit(draw_graph_files, str(Path(run.path).resolve()))
+        else:
+            save_graph(graph, run.path, pictures=settings.pictures)
         self.timed("expand", t0)
         insisted = {n.label for n in graph.events() if any(d.by == "user" for d in n.history)}
         paths = select_paths(graph.paths(), settings.max_scenarios, first=insisted)
@@ -324,6 +335,18 @@ class MainJob:
 
     # --- the end -----------------------------------------------------------------------------
 
+    def _graph_drawn(self) -> None:
+        """Wait for the graph's pictures a task draws; where that task failed (its worker died,
+        the batch was stopped), draw them here: the report never goes without them."""
+        fut, self.graph_pictures = self.graph_pictures, None
+        if fut is None or self.graph is None:
+            return
+        try:
+            fut.result()
+        except Exception as exc:  # noqa: BLE001 (any failure of the task: drawn here instead)
+            log.warning("the graph's pictures were not drawn by the worker (%s); drawing them here", exc)
+            save_graph(self.graph, self.run_folder.path, pictures=True)
+
     def close(self) -> None:
         """How the run ended, into run.json: the model usage, the outcomes in run order, and the
         summary and report when there is a graph (:meth:`report`); after a disk that took no more,
@@ -339,6 +362,7 @@ class MainJob:
             if self.disk_full:  # say so in run.json; the summary and report wait for the resume
                 run.record_failure(manifest)
             elif self.graph is not None:
+                self._graph_drawn()
                 self.report()
             else:
                 run.write_manifest(manifest)
