@@ -48,7 +48,7 @@ def test_a_missing_environment_says_what_to_do(monkeypatch: pytest.MonkeyPatch, 
         check_lerobot(tmp_path)
     msg = str(err.value)
     assert str(tmp_path / "none" / "bin" / "python") in msg and "is missing" in msg
-    assert "run setup.sh" in msg and ".venv-lerobot" in msg and "REGEN_LEROBOT_VENV" in msg
+    assert "run WITH_LEROBOT=1 bash setup.sh" in msg and ".venv-lerobot" in msg and "REGEN_LEROBOT_VENV" in msg
     got = check_written(tmp_path, WRITTEN)  # after writing: a note, not an error
     assert got["checked"] is False
     assert got["note"] == (f"not checked with LeRobot's loader: {tmp_path / 'none'} (REGEN_LEROBOT_VENV) not "

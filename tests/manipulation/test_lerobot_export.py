@@ -222,3 +222,35 @@ def test_regen_dataset_format_lerobot_fails_when_lerobot_cannot_read_it(door_run
     assert f"the LeRobot dataset was written at {tmp_path / 'ds'}, but LeRobot's LeRobotDataset could not read" \
         in " ".join(res.output.split()), res.output
     assert "ValueError: no such feature" in res.output
+
+
+def test_episodes_that_show_the_same_motion_are_named(dataset, door_run: Path) -> None:
+    """The door run's two contexts differ only in who needs the door open (no asset of the
+    scene): the same states, actions and pictures, named as one motion; the CLI says so."""
+    out, summary = dataset
+    names = sorted(p.name for p in (door_run / "scenarios").iterdir() if (p / "trace.json").is_file())
+    table = pq.read_table(out / "data" / "chunk-000" / "file-000.parquet").to_pydict()
+    by_episode: dict[int, list] = {}
+    for e, s, a in zip(table["episode_index"], table["observation.state"], table["action"], strict=True):
+        by_episode.setdefault(e, []).append((s, a))
+    identical = by_episode[0] == by_episode[1]
+    assert summary["same_motion"] == ([names] if identical else [])
+    assert identical  # as measured: the child and the guest are not in the simulated scene
+
+
+def test_the_motion_key_reads_what_the_episode_shows_not_its_text() -> None:
+    import numpy as np
+
+    from regen.manipulation.export.lerobot import _motion_key
+
+    state = np.zeros((3, 9), dtype=np.float32)
+    cols = {"observation.state": state, "observation.environment_state": np.ones((3, 13), dtype=np.float32),
+            "action": state + 1, "task_index": np.zeros(3)}
+    images = {"scene": [np.zeros((4, 4, 3), dtype=np.uint8)] * 3, "wrist": [np.ones((4, 4, 3), dtype=np.uint8)] * 3}
+    key = _motion_key(cols, images)
+    assert _motion_key({**cols, "task_index": np.ones(3)}, images) == key  # another task: the same motion
+    moved = state.copy()
+    moved[2, 0] = 1e-3
+    assert _motion_key({**cols, "observation.state": moved}, images) != key
+    other = {**images, "wrist": [np.ones((4, 4, 3), dtype=np.uint8)] * 2 + [np.zeros((4, 4, 3), dtype=np.uint8)]}
+    assert _motion_key(cols, other) != key

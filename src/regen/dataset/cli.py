@@ -73,6 +73,10 @@ def _episodes(runs: list[str], out_dir, fmt: list[str]) -> None:
     console.print(f"{got.get('episodes', 0)} episodes, {got.get('frames', 0)} frames at {got.get('fps')} fps, "
                   f"{len(got.get('skipped') or [])} scenarios left out" + (
                       ": " + "; ".join(shown(str(s)) for s in got["skipped"]) if got.get("skipped") else ""))
+    for names in got.get("same_motion") or []:
+        console.print(f"same motion in {len(names)} episodes ({', '.join(shown(n) for n in names)}): the same "
+                      "states, actions and pictures; their contexts differ only in words the simulation does "
+                      "not show (as training data, duplicates)")
     console.print(f"LeRobot v3 dataset: {shown(str(out_dir))} (meta/info.json, meta/tasks.parquet, "
                   "meta/episodes/, data/)")
     if (got.get("check") or {}).get("note"):

@@ -25,6 +25,7 @@ replaced, any other non-empty folder is left alone (ConfigError).
 
 from __future__ import annotations
 
+import hashlib
 import io
 import json
 import os
@@ -249,10 +250,12 @@ def _write_dataset(root: Path, collected: list[tuple[Episode, Any, Trace]]) -> d
     action = ACTION_COMMAND if all(ep.command is not None for ep in episodes) else ACTION_NEXT_STATE
     feats = features(with_reward=all(ep.reward is not None for ep in episodes))
     data, rows, per_episode, start = _DataFiles(root, pa), [], [], 0
+    motions: dict[str, list[str]] = {}  # what the robot and the world did -> the episodes that did it
     try:
         for k, (ep, scenario, trace) in enumerate(collected):
             images = replay_cameras(scenario, trace, ep.samples)
             cols = _columns(ep, k, start, tasks.index(ep.task), action, images, feats)
+            motions.setdefault(_motion_key(cols, images), []).append(ep.name)
             chunk, file = data.write(_table(pa, cols, feats))
             stats = {key: feature_stats(cols[key], images[key.rsplit(".", 1)[1]] if key in IMAGE_KEYS else None)
                      for key in feats}
@@ -271,7 +274,22 @@ def _write_dataset(root: Path, collected: list[tuple[Episode, Any, Trace]]) -> d
     _write_json(root / "meta" / "stats.json", merge_stats(per_episode))
     _write_json(root / "meta" / "info.json", _info(feats, len(episodes), start, len(tasks)))
     return {"episodes": len(episodes), "frames": start, "tasks": tasks, "action": action,
-            "reward": "next.reward" in feats}
+            "reward": "next.reward" in feats,
+            "same_motion": [names for names in motions.values() if len(names) > 1]}
+
+
+def _motion_key(cols: dict[str, Any], images: dict[str, list[np.ndarray]]) -> str:
+    """A digest of what an episode shows: its states, actions, rewards and pictures, not its task
+    text. Two episodes with the same digest are the same motion in the same world: contexts that
+    differ only in words the simulation does not show (a person who is no asset of the scene)."""
+    h = hashlib.sha256()
+    for key in ("observation.state", "observation.environment_state", "action", "next.reward"):
+        if key in cols:
+            h.update(key.encode() + np.ascontiguousarray(cols[key]).tobytes())
+    for cam in sorted(images):
+        for img in images[cam]:
+            h.update(np.ascontiguousarray(img).tobytes())
+    return h.hexdigest()
 
 
 def _is_dataset(path: Path) -> bool:

@@ -82,8 +82,8 @@ def lerobot_python() -> Path:
     venv = lerobot_venv()
     exe = venv / "bin" / "python"
     if not exe.is_file():
-        raise ConfigError(f"LeRobot's loader is not installed ({exe} is missing): run setup.sh, which installs "
-                          "lerobot 0.4.4 into .venv-lerobot beside the checkout, or point REGEN_LEROBOT_VENV at "
+        raise ConfigError(f"LeRobot's loader is not installed ({exe} is missing): run WITH_LEROBOT=1 bash setup.sh, "
+                          "which installs lerobot 0.4.4 into .venv-lerobot beside the checkout, or point REGEN_LEROBOT_VENV at "
                           "a virtual environment that has it (docs/dataset.md, 'Manipulation episodes')")
     return exe
 
