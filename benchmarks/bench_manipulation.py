@@ -11,6 +11,7 @@ temp folder).
 from __future__ import annotations
 
 import argparse
+import shutil
 import statistics
 import tempfile
 from pathlib import Path
@@ -75,6 +76,8 @@ def main() -> None:
                   f" {sps:,.0f} steps/s)", flush=True)
             if "render" in t:
                 print(f"{'':22s} render strip+GIF {t['render']:.2f} s -> {out}")
+            else:  # nothing in it to look at: not left in /tmp
+                shutil.rmtree(out, ignore_errors=True)
     ok = sum(r["verdict"] == "verified" for r in rows)
     per_behavior: dict[str, int] = {}
     for r in rows:
