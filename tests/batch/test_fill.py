@@ -111,3 +111,25 @@ def test_the_batch_report_shows_the_fill(tmp_path, fake_driving):
     page = (out / "report.html").read_text(encoding="utf-8")
     assert 'id="fill"' in page and "1 Debris, 2 Cyclist" in page
     assert "(coverage fill: debris lies ahead)" in page
+
+
+def test_the_progress_lines_say_which_fill_runs_were_added(tmp_path, fake_driving):
+    out = tmp_path / "batch"
+    res = CliRunner().invoke(app, ["batch", str(_spec(tmp_path)), "--out", str(out), "--fill-coverage",
+                                   "--workers", "1"], env={"COLUMNS": "300"})
+    assert res.exit_code == 0, res.output
+    assert ("coverage fill: 2 run(s) added: 01-fill-1-debris-lies-ahead, 01-fill-2-a-cyclist-rides-ahead"
+            in res.output)
+    assert "01-fill-1-debris-lies-ahead: started" in res.output  # each fill run then shows as a behavior
+    again = CliRunner().invoke(app, ["batch", str(_spec(tmp_path)), "--out", str(out), "--fill-coverage",
+                                     "--workers", "1"], env={"COLUMNS": "300"})
+    assert again.exit_code == 0 and "coverage fill: 2 run(s) added" in again.output  # resumed, the same runs
+
+
+def test_a_fill_that_adds_nothing_says_so():
+    from regen.batch.progress import _Tally
+
+    tally = _Tally()
+    assert tally.take({"event": "fill", "runs": []}) == \
+        "coverage fill: no run to add (no uncovered class has a cause that fits)"
+    assert tally.rows == {}

@@ -38,6 +38,12 @@ class _Tally:
         if kind == "batch":
             self.rows = {n: _Row() for n in ev.get("names", [])}
             return f"batch: {ev.get('total')} behavior(s), {ev.get('workers')} simulation worker(s)"
+        if kind == "fill":  # --fill-coverage planned its runs: they join the table
+            runs = [str(r) for r in ev.get("runs") or []]
+            for r in runs:
+                self.rows.setdefault(r, _Row())
+            return (f"coverage fill: {len(runs)} run(s) added: {', '.join(runs)}" if runs
+                    else "coverage fill: no run to add (no uncovered class has a cause that fits)")
         row = self.rows.setdefault(name, _Row()) if name else None
         if kind == "llm_call":
             self.calls += 1
