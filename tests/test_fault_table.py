@@ -1,7 +1,7 @@
 """Issue 37, build 4: every command keeps the same promises against every kind of bad input.
 
 Two tables. :data:`FAULTS` names the kinds of bad input and what a command must do with them;
-:data:`COMMANDS` has one row per command (``generate``, ``expand``, ``test``, ``whatif``,
+:data:`COMMANDS` has one row per command (``generate``, ``expand``, ``test``, ``falsify``, ``whatif``,
 ``augment``, ``import``, ``eval``, ``runs``, and ``assets``; a mode of one, such as ``eval
 --fidelity`` or ``runs show``, is a row of its own), mapping each fault the command can receive to an invocation that carries it, built
 from a valid minimal one. A fault a command has no way to receive is not in its row (not a skip);
@@ -484,6 +484,46 @@ TEST = Command(("driving_run",), {
 })
 
 
+# falsify -----------------------------------------------------------------------------------------
+
+FALSIFY_OPTIONS = ("--budget", "1", "--param-budget", "0", "--no-pictures")
+
+
+def _falsify(case: Case, run: Path, policy: str, out: Path) -> list[str]:
+    return ["falsify", str(run), "--policy", policy, "--out", str(out), *FALSIFY_OPTIONS]
+
+
+def _falsify_killed(case: Case) -> list[str]:
+    run = _run_copy(case, "driving_run")
+    args = _falsify(case, run, "aeb", case.out)
+    first = _cli(*args)
+    assert first.exit_code == 0, first.output
+    before = _json(case.out / "falsify.json")
+    # killed after its candidate was tested, before falsify.json was written
+    case.killed(case.out, remove=["falsify.json"])
+    case.may_write = [run / "report.html"]  # the run's report shows the search
+
+    def finished(res) -> None:
+        after = _json(case.out / "falsify.json")
+        assert after["status"] == "done", after
+        assert [(c["cid"], c["status"]) for c in after["candidates"]] == \
+            [(c["cid"], c["status"]) for c in before["candidates"]]
+
+    case.finished = finished
+    return args
+
+
+FALSIFY = Command(("driving_run",), {
+    **file_faults("policy.py", POLICY, "def policy(o:\n",
+                  lambda case, f: _falsify(case, _run_copy(case, "driving_run"), str(f), case.out),
+                  faults=("missing", "folder_for_file", "file_under_file", "non_utf8", "empty", "corrupt")),
+    **folder_faults(lambda case, folder: _falsify(case, folder, "aeb", case.out)),
+    **out_faults(lambda case, out: _falsify(case, _run_copy(case, "driving_run"), "aeb", out)),
+    "not_a_run": lambda case: _falsify(case, _users_folder(case), "aeb", case.out),
+    "killed": _falsify_killed,
+})
+
+
 # whatif and augment ------------------------------------------------------------------------------
 
 WHATIF_EDIT = ("--remove", "a1", "--no-judge", "--no-pictures")
@@ -736,6 +776,7 @@ COMMANDS: dict[str, Command] = {
     "generate": GENERATE,
     "expand": EXPAND,
     "test": TEST,
+    "falsify": FALSIFY,
     "whatif": WHATIF,
     "augment": AUGMENT,
     "import": IMPORT,
