@@ -127,3 +127,22 @@ def verified_run(tmp_path_factory, scenarios: dict[str, CausePath]):
             out = run_path(path, run / RunFolder.SCENARIOS / name, pictures=False)
             assert out.verdict.feasible, out.verdict.reason
         yield run
+
+
+def chain_simulator(key: str, i: int):
+    """A function of no argument that simulates ``FEASIBLE[key][i]`` (rule-based grounding, seed
+    0) on Scenic, compiled again at each call (not the program kept from the call before); its
+    RawRun."""
+    from regen.driving.grounding.rules import ground_rule_based
+    from regen.driving.simulation import run as run_module
+    from regen.driving.simulation.scenario import scenic_program, timing
+
+    scenario = ground_rule_based(FEASIBLE[key][i], seed=0)
+    text = scenic_program(scenario)
+    dt, steps, seed = timing(scenario)
+
+    def simulate():
+        run_module._RECENT.clear()
+        return run_module.run_program(text, steps=steps, dt=dt, seed=seed)
+
+    return simulate

@@ -18,10 +18,9 @@ from rich.markup import escape
 from rich.table import Table
 
 from regen.cli_help import REPLAY_HELP, llm_help
-from regen.errors import RegenError
 from regen.falsify.record import CANDIDATES, FALSIFY_JSON, CandidateRecord, Falsification
 from regen.falsify.search import DEFAULT_PARAM_BUDGET, failure_words
-from regen.harness.cli import OracleOption, PolicyOption, RunDirArgument
+from regen.harness.cli import OracleOption, PolicyOption, RunDirArgument, command_errors
 from regen.pipeline.terminal import shown
 
 _STYLE = {"PASS": "green", "FAIL": "red", "INVALID": "yellow", "ERROR": "red"}
@@ -87,7 +86,8 @@ def falsify_command(
 
     console = Console(highlight=False, soft_wrap=True)
     err = Console(stderr=True, soft_wrap=True)
-    try:
+    with command_errors(err, run_dir, lambda: Path(out) if out is not None else None,
+                        "the finished candidates are kept; run the same command again to continue"):
         dest = out_folder(out) if out is not None else None
         _, _, harness = open_suite(run_dir)
         policy = policy or next(iter(harness.builtin), "")
@@ -96,21 +96,6 @@ def falsify_command(
                              pictures=pictures, param_budget=param_budget,
                              on_candidate=lambda rec, n: console.print(candidate_line(rec, n, budget)),
                              on_note=lambda note: err.print(f"[yellow]note:[/yellow] {shown(note)}"))
-    except KeyboardInterrupt:
-        err.print("[yellow]interrupted:[/yellow] the finished candidates are kept; run the same command "
-                  "again to continue")
-        raise typer.Exit(code=130) from None
-    except RegenError as exc:
-        err.print(f"[red]error:[/red] {shown(str(exc))}")
-        raise typer.Exit(code=exc.exit_code) from exc
-    except OSError as exc:  # a full or read-only disk: said in one line, as regen test says it
-        from regen.core.io import cannot_write, storage_error
-
-        target = Path(out) if out is not None else Path(run_dir)
-        if not cannot_write(exc, target) and not cannot_write(exc, Path(run_dir)):
-            raise
-        err.print(f"[red]error:[/red] {shown(storage_error(exc, target))}")
-        raise typer.Exit(code=2) from None
     _print_summary(console, report)
     _rerender(console, Path(run_dir), Path(report.out))
 

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import hashlib
 import re
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated
 
@@ -93,7 +95,9 @@ def test_command(
         console.print(f"[{_STYLE[tag]}]{tag}[/]  {shown(rest)}")
 
     files: dict[str, Path] = {}
-    try:
+    dest: Path | None = None
+    with command_errors(err, run_dir, lambda: dest, "the finished tests are kept; run the same command again "
+                        "to resume"):
         dest = (out_folder(out) if out is not None else None)
         _, _, harness = open_suite(run_dir)
         policy = policy or next(iter(harness.builtin), "")
@@ -104,21 +108,6 @@ def test_command(
                            on_episode=keep_failures(dest, harness, policy=policy), out=dest,
                            on_note=lambda note: err.print(f"[yellow]note:[/yellow] {shown(note)}"))
         files = {"tests": dest / "tests.json", "junit": dest / "junit.xml"}
-    except KeyboardInterrupt:
-        err.print("[yellow]interrupted:[/yellow] the finished tests are kept; run the same command again "
-                  "to resume")
-        raise typer.Exit(code=130) from None
-    except RegenError as exc:
-        err.print(f"[red]error:[/red] {shown(str(exc))}")
-        raise typer.Exit(code=exc.exit_code) from exc
-    except OSError as exc:
-        from regen.core.io import cannot_write, storage_error
-
-        target = dest if dest is not None else Path(run_dir)
-        if not cannot_write(exc, target) and not cannot_write(exc, Path(run_dir)):
-            raise
-        err.print(f"[red]error:[/red] {shown(storage_error(exc, target))}")
-        raise typer.Exit(code=2) from None
     s = report.summary()
     for line in summary_lines(report, harness.parameter_units):
         console.print(shown(line))
@@ -132,6 +121,30 @@ def test_command(
         err.print("[red]error:[/red] no test ran: the run has no verified scenario to test (see its "
                   "report), or every case was skipped")
         raise typer.Exit(code=1)
+
+
+@contextmanager
+def command_errors(err: Console, run_dir: Path, where: Callable[[], Path | None], kept: str) -> Iterator[None]:
+    """How a command that runs a policy over a run (``regen test``, ``regen falsify``) ends
+    early: Ctrl-C is exit 130 saying ``kept``; a :class:`RegenError` its exit code with one
+    ``error:`` line; a disk that takes no more (at ``where()``, its output folder when known, or
+    the run) exit 2 with one line. Any other error is raised."""
+    try:
+        yield
+    except KeyboardInterrupt:
+        err.print(f"[yellow]interrupted:[/yellow] {kept}")
+        raise typer.Exit(code=130) from None
+    except RegenError as exc:
+        err.print(f"[red]error:[/red] {shown(str(exc))}")
+        raise typer.Exit(code=exc.exit_code) from exc
+    except OSError as exc:
+        from regen.core.io import cannot_write, storage_error
+
+        target = where() or Path(run_dir)
+        if not cannot_write(exc, target) and not cannot_write(exc, Path(run_dir)):
+            raise
+        err.print(f"[red]error:[/red] {shown(storage_error(exc, target))}")
+        raise typer.Exit(code=2) from None
 
 
 def _rerender(run_dir: Path, dest: Path) -> str:

@@ -5,11 +5,9 @@ Scenic's clearing records the very trace it records with ours."""
 from __future__ import annotations
 
 import pytest
-from driving_chains import FEASIBLE
+from driving_chains import chain_simulator
 
-from regen.driving.grounding.rules import ground_rule_based
 from regen.driving.simulation import run as run_module
-from regen.driving.simulation.scenario import scenic_program, timing
 
 pytest.importorskip("scenic")
 
@@ -44,10 +42,7 @@ def test_it_deletes_what_scenics_clearing_deletes(monkeypatch) -> None:
         seen.append((type(obj).__name__, scenic_left, set(store)))
 
     monkeypatch.setattr(run_module, "_clear_caches", compare)
-    scenario = ground_rule_based(FEASIBLE["stop_in_intersection"][0], seed=0)
-    dt, steps, seed = timing(scenario)
-    run_module._RECENT.clear()
-    run_module.run_program(scenic_program(scenario), steps=steps, dt=dt, seed=seed)
+    chain_simulator("stop_in_intersection", 0)()
     assert len(seen) > 100 and len({cls for cls, _, _ in seen}) >= 1
     for cls, theirs, ours in seen:
         assert ours == theirs, (cls, theirs ^ ours)
@@ -56,14 +51,7 @@ def test_it_deletes_what_scenics_clearing_deletes(monkeypatch) -> None:
 @pytest.mark.slow
 @pytest.mark.parametrize("key,i", CHAINS)
 def test_a_scenario_records_the_same_trace_with_scenics_clearing(key, i, monkeypatch) -> None:
-    scenario = ground_rule_based(FEASIBLE[key][i], seed=0)
-    text = scenic_program(scenario)
-    dt, steps, seed = timing(scenario)
-
-    def simulate():
-        run_module._RECENT.clear()
-        return run_module.run_program(text, steps=steps, dt=dt, seed=seed)
-
+    simulate = chain_simulator(key, i)
     ours = simulate()
     with monkeypatch.context() as m:
         m.setattr(run_module, "_clear_caches", lambda obj: obj._clearCaches())

@@ -12,7 +12,7 @@ import tokenize
 from pathlib import Path
 
 import pytest
-from driving_chains import FEASIBLE
+from driving_chains import FEASIBLE, chain_simulator
 
 from regen.driving.grounding.rules import ground_rule_based
 from regen.driving.simulation import compile_cache, parse_cache
@@ -183,17 +183,7 @@ def _without_cache(monkeypatch) -> None:
 @pytest.mark.parametrize("key,i", CHAINS)
 def test_a_scenario_simulated_through_the_cache_records_the_same_trace(key, i, monkeypatch) -> None:
     """Trace by trace, every recorded number: without the cache, with it cold, with it warm."""
-    from regen.driving.simulation import run as run_module
-    from regen.driving.simulation.run import run_program
-    from regen.driving.simulation.scenario import timing
-
-    scenario = ground_rule_based(FEASIBLE[key][i], seed=0)
-    text = scenic_program(scenario)
-    dt, steps, seed = timing(scenario)
-    def fresh():  # compiled again, not the compiled program kept from the run before
-        run_module._RECENT.clear()
-        return run_program(text, steps=steps, dt=dt, seed=seed)
-
+    fresh = chain_simulator(key, i)  # compiled again, not the compiled program kept from the run before
     with monkeypatch.context() as m:
         _without_cache(m)
         plain = fresh()
