@@ -230,6 +230,16 @@ def test_settings_timings_and_usage_are_listed(make_run) -> None:
     assert "max_scenarios" in html
 
 
+def test_model_time_of_cache_hits_is_explained_only_when_there_are_some(make_run) -> None:
+    """A run replayed from its cache shows the first answers' model time: the page says so."""
+    html, _ = _page(make_run([{}]))  # 2 cache hits
+    assert "each of the 2 cache hit(s) at the time the model took when it first gave that answer" in html
+    usage = {"total": {"calls": 3, "model_calls": 3, "cache_hits": 0, "latency": 9.0},
+             "by_purpose": {"expand": {"calls": 3, "model_calls": 3, "cache_hits": 0, "latency": 9.0}}}
+    html, _ = _page(make_run([{}], usage=usage))
+    assert "cache hit(s) at the time" not in html and "9.0 s" in html
+
+
 def test_page_is_self_contained(make_run) -> None:
     html, page = _page(make_run([{}, {"verdict": incomplete()}]))
     assert "<script" not in html
