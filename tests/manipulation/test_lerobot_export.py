@@ -21,7 +21,7 @@ from regen.manipulation.export import write_lerobot  # noqa: E402
 pytestmark = pytest.mark.slow
 
 CASSETTE = Path(__file__).resolve().parents[1] / "data" / "cassettes" / "generate_manipulation_door.json"
-FILES = ["data/chunk-000/file-000.parquet", "meta/episodes/chunk-000/file-000.parquet", "meta/info.json",
+FILES = ["README.md", "data/chunk-000/file-000.parquet", "meta/episodes/chunk-000/file-000.parquet", "meta/info.json",
          "meta/stats.json", "meta/tasks.parquet"]
 
 
@@ -181,7 +181,12 @@ def test_regen_dataset_format_lerobot_writes_the_same_episodes(door_run: Path, d
     assert (f"not checked with LeRobot's loader: {tmp_path / 'no-venv'} (REGEN_LEROBOT_VENV) not found: "
             "setup.sh creates .venv-lerobot") in res.output
     for f in FILES:
-        assert (tmp_path / "ds" / f).read_bytes() == (out / f).read_bytes(), f
+        if f != "README.md":
+            assert (tmp_path / "ds" / f).read_bytes() == (out / f).read_bytes(), f
+    card = (tmp_path / "ds" / "README.md").read_text()
+    assert card.startswith((out / "README.md").read_text())  # the card, then what the check said
+    assert card.endswith("## Read back by LeRobot\n\nnot checked with LeRobot's loader: "
+                         f"{tmp_path / 'no-venv'} (REGEN_LEROBOT_VENV) not found: setup.sh creates .venv-lerobot\n")
     res = CliRunner().invoke(app, ["dataset", str(door_run), "--out", str(tmp_path / "vla")])
     assert res.exit_code == 2 and "--format lerobot" in res.output, res.output
     res = CliRunner().invoke(app, ["dataset", str(door_run), "--out", str(tmp_path / "x"), "--format", "lerobot",
@@ -202,6 +207,9 @@ def test_regen_dataset_format_lerobot_checks_with_lerobot(door_run: Path, datase
     assert res.exit_code == 0, res.output
     assert re.search(rf"checked with LeRobot \S+'s LeRobotDataset: 2 episodes, {summary['frames']} frames at 12 fps",
                      res.output), res.output
+    card = (tmp_path / "ds" / "README.md").read_text()
+    assert re.search(rf"## Read back by LeRobot\n\nchecked with LeRobot \S+'s LeRobotDataset: 2 episodes, "
+                     rf"{summary['frames']} frames at 12 fps\n$", card), card
 
 
 def test_regen_dataset_format_lerobot_fails_when_lerobot_cannot_read_it(door_run: Path, tmp_path: Path,
@@ -222,6 +230,24 @@ def test_regen_dataset_format_lerobot_fails_when_lerobot_cannot_read_it(door_run
     assert f"the LeRobot dataset was written at {tmp_path / 'ds'}, but LeRobot's LeRobotDataset could not read" \
         in " ".join(res.output.split()), res.output
     assert "ValueError: no such feature" in res.output
+
+
+def test_the_card_lists_every_episode_where_it_came_from_and_the_same_motion(dataset) -> None:
+    """README.md: one table row per episode with its scenario, task, frames and verdict as the
+    episode table holds them; the same-motion episodes named; how to load it."""
+    out, summary = dataset
+    card = (out / "README.md").read_text()
+    episodes = pq.read_table(out / "meta" / "episodes" / "chunk-000" / "file-000.parquet").to_pylist()
+    tasks = pq.read_table(out / "meta" / "tasks.parquet").to_pandas()
+    assert len(episodes) == 2
+    for ep in episodes:
+        row = (f"| {ep['episode_index']} | {ep['regen/scenario']} | {ep['tasks'][0]} | {ep['length']} | "
+               f"{ep['regen/status']} |")
+        assert row in card.splitlines(), row
+    assert len(tasks) == 2 and f"{summary['frames']} frames at 12 fps" in card
+    assert "- Episodes 0, 1 (" in card and "they are duplicates" in card
+    assert 'LeRobotDataset("regen/episodes", root=' in card
+    assert "## Read back by LeRobot" not in card  # write_lerobot alone checks nothing
 
 
 def test_episodes_that_show_the_same_motion_are_named(dataset, door_run: Path) -> None:

@@ -188,11 +188,14 @@ class ManipulationBackend(DomainBackend):
         read back by LeRobot's own loader where its environment (``.venv-lerobot``) is installed:
         the outcome under ``check`` (:func:`regen.manipulation.export.lerobot_check.check_written`;
         LeRobotCheckError when the loader fails)."""
+        from regen.manipulation.export.card import add_check
         from regen.manipulation.export.lerobot import write_lerobot
         from regen.manipulation.export.lerobot_check import check_written
 
         written = write_lerobot(run_dirs, out)
-        return {**written, "check": check_written(out, written)}
+        check = check_written(out, written)
+        add_check(out, check["note"])  # the card says whether LeRobot's loader read it back
+        return {**written, "check": check}
 
     def policy_harness(self):
         from regen.manipulation.testing.harness import ManipulationHarness

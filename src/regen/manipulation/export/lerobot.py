@@ -39,6 +39,7 @@ from PIL import Image
 
 from regen.core.trace import Trace
 from regen.errors import ConfigError, DependencyNotInstalled
+from regen.manipulation.export.card import write_card
 from regen.manipulation.export.episode import (
     ACTION_COMMAND,
     ACTION_NEXT_STATE,
@@ -48,6 +49,7 @@ from regen.manipulation.export.episode import (
     Episode,
     build_episode,
 )
+from regen.manipulation.export.lerobot_check import DEFAULT_REPO_ID
 from regen.manipulation.export.stats import feature_stats, merge_stats
 from regen.manipulation.render.camera import CAMERAS, SIZE, replay_cameras
 
@@ -275,7 +277,9 @@ def _write_dataset(root: Path, collected: list[tuple[Episode, Any, Trace]]) -> d
     _write_json(root / "meta" / "info.json", _info(feats, len(episodes), start, len(tasks)))
     return {"episodes": len(episodes), "frames": start, "tasks": tasks, "action": action,
             "reward": "next.reward" in feats,
-            "same_motion": [names for names in motions.values() if len(names) > 1]}
+            "same_motion": [names for names in motions.values() if len(names) > 1],
+            "episode_list": [{"index": r["episode_index"], "scenario": r["regen/scenario"], "task": r["tasks"][0],
+                              "frames": r["length"], "status": r["regen/status"]} for r in rows]}
 
 
 def _motion_key(cols: dict[str, Any], images: dict[str, list[np.ndarray]]) -> str:
@@ -331,12 +335,14 @@ def write_lerobot(run_dirs: list[Path], out: Path) -> dict[str, Any]:
     tmp.chmod(0o755)  # mkdtemp's folder is the user's alone; a dataset is shared like any output
     try:
         written = _write_dataset(tmp, collected)
+        info = {"format": "lerobot", "codebase_version": CODEBASE_VERSION, "path": str(out), "fps": FPS,
+                "cameras": list(IMAGE_KEYS), "image_size": list(SIZE), **written, "skipped": skipped}
+        write_card(tmp, info, DEFAULT_REPO_ID)
         _move_into_place(tmp, out)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
-    return {"format": "lerobot", "codebase_version": CODEBASE_VERSION, "path": str(out), "fps": FPS,
-            "cameras": list(IMAGE_KEYS), "image_size": list(SIZE), **written, "skipped": skipped}
+    return info
 
 
 __all__ = ["CODEBASE_VERSION", "DATA_PATH", "EPISODES_PATH", "FPS", "IMAGE_KEYS", "TASKS_PATH", "features",
