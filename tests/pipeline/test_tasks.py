@@ -82,3 +82,60 @@ def test_close_with_cancel_cancels_what_has_not_started(tmp_path) -> None:
     assert all(f.result() == i * i for i, f in enumerate(futs) if f.done() and not f.cancelled())
     with pytest.raises(RuntimeError, match="closed"):
         t.submit(square, 1)
+
+
+def test_a_worker_killed_between_scenarios_is_replaced_and_nothing_is_lost() -> None:
+    """kill -9 of an idle worker (seen in a batch: the pool then sent it the next scenario, the
+    dispatcher died of the broken pipe and the batch waited forever): a new worker takes its
+    place, every scenario runs once, and no death is counted (no scenario was running)."""
+    import signal
+
+    t = ProcessTasks(2)
+    try:
+        assert [f.result(timeout=60) for f in [t.submit(square, i) for i in range(4)]] == [0, 1, 4, 9]
+        victim = t._pool[0].process  # idle now: every task above has finished
+        os.kill(victim.pid, signal.SIGKILL)
+        victim.join(timeout=10)
+        futs = [t.submit(os.getpid) for _ in range(6)]
+        pids = {f.result(timeout=60) for f in futs}
+        assert victim.pid not in pids and os.getpid() not in pids
+        assert len(t._pool) == 2 and all(w.process.is_alive() for w in t._pool)
+        assert t.deaths == 0
+    finally:
+        t.close(cancel=True)
+
+
+def test_a_worker_whose_pipe_breaks_as_it_gets_a_scenario_is_replaced(monkeypatch) -> None:
+    """The worker dies between the liveness check and the send: the scenario goes to another
+    worker, not counted as an attempt."""
+    t = ProcessTasks(1)
+    try:
+        first = t._pool[0]
+
+        def broken(_obj) -> None:
+            raise BrokenPipeError(32, "Broken pipe")
+
+        monkeypatch.setattr(first.conn, "send", broken)
+        fut = t.submit(square, 5)
+        assert fut.result(timeout=60) == 25
+        assert first not in t._pool and len(t._pool) == 1 and t.deaths == 0
+    finally:
+        t.close(cancel=True)
+
+
+def test_a_dispatcher_failure_fails_the_scenarios_instead_of_hanging(monkeypatch) -> None:
+    """A bug in the dispatcher ends every unfinished scenario with an error (before, the thread
+    died and the futures never completed)."""
+    t = ProcessTasks(1)
+    try:
+        def bug() -> None:
+            raise KeyError("dispatcher bug")
+
+        monkeypatch.setattr(t, "_assign", bug)
+        fut = t.submit(square, 3)
+        with pytest.raises(RuntimeError, match="the worker pool stopped: KeyError"):
+            fut.result(timeout=60)
+        with pytest.raises(RuntimeError, match="closed"):
+            t.submit(square, 1)
+    finally:
+        t.close(cancel=True)

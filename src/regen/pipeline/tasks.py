@@ -6,7 +6,8 @@ written by the worker), and hand back :class:`concurrent.futures.Future` objects
 
 A worker that dies (killed, out of memory, a simulator's crash) loses only the scenario it was
 running: that one is run once more on a fresh worker, then its future fails with
-:class:`WorkerDied` saying so; the other scenarios are not touched.
+:class:`WorkerDied` saying so; the other scenarios are not touched. One that dies between two
+scenarios loses nothing: a fresh worker takes its place.
 
 Imports: the standard library; Ray only inside :class:`RayTasks`.
 """
@@ -127,22 +128,63 @@ class ProcessTasks:
         return _Worker(p, parent)
 
     def _assign(self) -> None:
-        """Idle workers take queued tasks; new workers start while tasks wait (under the lock)."""
+        """Idle workers take queued tasks; new workers start while tasks wait (under the lock).
+        An idle worker that died (killed between two scenarios) leaves the pool and a new one
+        takes its place: no scenario was lost, so none counts an attempt."""
         while self._queue:
             idle = next((w for w in self._pool if w.task is None), None)
+            if idle is not None and not idle.process.is_alive():
+                self._left_idle(idle)
+                continue
             if idle is None and len(self._pool) < self.workers:
                 idle = self._start_worker()
                 self._pool.append(idle)
             if idle is None:
                 return
             task = self._queue.popleft()
-            if task.attempts == 0 and not task.future.set_running_or_notify_cancel():
+            if not task.future.running() and not task.future.set_running_or_notify_cancel():
                 continue  # cancelled while it waited
+            try:
+                idle.conn.send((task.fn, task.args))
+            except (BrokenPipeError, ConnectionResetError):  # it died just now, before taking it
+                self._queue.appendleft(task)
+                self._left_idle(idle)
+                continue
             task.attempts += 1
             idle.task = task
-            idle.conn.send((task.fn, task.args))
+
+    def _left_idle(self, w: _Worker) -> None:
+        """An idle worker that is gone: reaped and out of the pool (the next assignment starts
+        another)."""
+        w.process.join(timeout=1)
+        log.warning("a worker process died between scenarios (exit code %s); starting another",
+                    w.process.exitcode)
+        w.conn.close()
+        self._pool.remove(w)
+
+    def _fail_all(self, exc: BaseException) -> None:
+        """The dispatcher itself failed (a bug): every scenario not finished fails with it
+        rather than waiting forever."""
+        err = RuntimeError(f"the worker pool stopped: {type(exc).__name__}: {exc}")
+        for w in self._pool:
+            if w.task is not None and not w.task.future.done():
+                w.task.future.set_exception(err)
+            w.task = None
+        while self._queue:
+            task = self._queue.popleft()
+            if task.future.running() or task.future.set_running_or_notify_cancel():
+                task.future.set_exception(err)
 
     def _dispatch(self) -> None:
+        try:
+            self._dispatch_loop()
+        except BaseException as exc:  # never a silent end: the callers wait on these futures
+            log.exception("the worker pool's dispatcher failed")
+            with self._lock:
+                self._closing = True
+                self._fail_all(exc)
+
+    def _dispatch_loop(self) -> None:
         while True:
             with self._lock:
                 self._assign()
@@ -177,6 +219,7 @@ class ProcessTasks:
         """A worker died: it leaves the pool; its scenario runs again, or fails after the last attempt."""
         w.process.join(timeout=1)
         code = w.process.exitcode
+        w.conn.close()
         self._pool.remove(w)
         task, w.task = w.task, None
         if task is None:
