@@ -124,6 +124,9 @@ class LLM:
         self.concurrency = max(1, concurrency)
         self.sampling = sampling or Sampling()
         self.on_call = on_call
+        # called before every call that goes to the model (not a cache hit): a batch waits here
+        # for its turn at the model (regen.pipeline.run.MainJob), so a cached job never waits
+        self.before_model: Callable[[], None] | None = None
         self.stats = UsageStats()
         self._stats_lock = threading.Lock()
         self._provider_lock = threading.Lock()
@@ -167,6 +170,8 @@ class LLM:
                 f"replay mode: no cached answer for a '{purpose}' call to {self.provider.id} "
                 f"(key {key[:12]}). Run without --replay to call the model, or use the cache "
                 "file of the run you are replaying.")
+        if self.before_model is not None:
+            self.before_model()
         hint: dict[str, Any] = {"purpose": purpose} if self.provider.takes_purpose else {}
         start = time.perf_counter()
         if self.provider.concurrent:
@@ -256,6 +261,8 @@ class LLM:
         if hit is None:
             if not self.can_weigh:
                 raise ConfigError(f"{self.provider.id} gives no option probabilities; ask for an answer instead")
+            if self.before_model is not None:
+                self.before_model()
             start = time.perf_counter()
             with self._provider_lock:
                 probs, n_in = self.provider.option_probs(msgs, prefix=prefix, options=tuple(options))

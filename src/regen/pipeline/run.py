@@ -14,6 +14,7 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
+import threading
 import time
 from collections.abc import Callable, Collection
 from concurrent.futures import Future
@@ -106,6 +107,34 @@ def generate(behavior: Behavior, out: Path, *, settings: RunSettings | None = No
         run.unlock()
 
 
+class _TurnAtModel:
+    """A job's turn at the model (``model_gate``, a batch's one-at-a-time local model): taken at
+    the job's first call that goes to the model, then held until the block ends (the job's
+    expansion and grounding, whose calls then follow each other), so that a job whose answers
+    are all cached (resumed, replayed) never waits behind another job's model calls."""
+
+    def __init__(self, gate: Callable[[], contextlib.AbstractContextManager[Any]]):
+        self._gate = gate
+        self._held: contextlib.AbstractContextManager[Any] | None = None
+        self._lock = threading.Lock()
+
+    def take(self) -> None:
+        with self._lock:
+            if self._held is None:
+                held = self._gate()
+                held.__enter__()
+                self._held = held
+
+    def __enter__(self) -> _TurnAtModel:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        with self._lock:
+            held, self._held = self._held, None
+        if held is not None:
+            held.__exit__(None, None, None)
+
+
 class MainJob:
     """One invocation of the main job on a run folder :meth:`RunFolder.open` has locked.
 
@@ -160,9 +189,13 @@ class MainJob:
         it (:meth:`close`): done, interrupted, a model error, or a disk that takes no more."""
         run, manifest = self.run_folder, self.manifest
         try:
-            with self.model_gate():
-                paths = self.expand()
-                pending = self.ground(paths)
+            with _TurnAtModel(self.model_gate) as turn:
+                self.llm.before_model = turn.take  # taken at the first call the cache cannot answer
+                try:
+                    paths = self.expand()
+                    pending = self.ground(paths)
+                finally:
+                    self.llm.before_model = None
             self.simulate(pending)
             self.interrupts.check()
             manifest.status = "done"
