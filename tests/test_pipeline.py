@@ -187,3 +187,37 @@ def test_a_resumed_folder_holds_its_path_when_the_behavior_carries_tuples(tmp_pa
     assert folder.holds(path)
     other = path.model_copy(update={"events": ["a child crosses", STOP]})
     assert not folder.holds(other)
+
+
+def test_a_run_killed_after_grounding_keeps_its_stage_times_and_model_usage(tmp_path: Path,
+                                                                            monkeypatch: pytest.MonkeyPatch) -> None:
+    """kill -9 during the simulation (emulated: the simulation never returns and nothing runs
+    at the end): run.json already holds the expansion and grounding times and the model calls
+    made; the resume adds to them, counting no call twice (seen: a batch killed mid-run showed
+    a grounding of 47 s as 0.00 s)."""
+    from regen.pipeline.run import MainJob
+
+    class Killed(BaseException):
+        pass
+
+    def killed(self, pending):
+        raise Killed
+
+    run = tmp_path / "run"
+    model = _model()
+    with monkeypatch.context() as mp:
+        mp.setattr(MainJob, "simulate", killed)
+        mp.setattr(MainJob, "close", lambda self: None)  # a killed process writes nothing more
+        with pytest.raises(Killed):
+            generate(Behavior(text=STOP, domain="driving"), run, settings=RunSettings(max_scenarios=4, causes=4),
+                     llm=_llm(model, run))
+    manifest = json.loads((run / "run.json").read_text())
+    assert manifest["status"] == "running"
+    assert manifest["timings"]["expand"] > 0 and manifest["timings"]["ground"] > 0
+    calls = manifest["usage"]["total"]["model_calls"]
+    assert calls == len(model.kinds) > 0
+    res = generate(Behavior(text=STOP, domain="driving"), run, settings=RunSettings(max_scenarios=4, causes=4),
+                   llm=_llm(model, run))
+    after = json.loads((run / "run.json").read_text())
+    assert res.manifest.status == "done" and after["usage"]["total"]["model_calls"] == len(model.kinds)
+    assert after["timings"]["ground"] >= manifest["timings"]["ground"]

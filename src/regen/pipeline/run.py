@@ -244,7 +244,7 @@ class MainJob:
         insisted = {n.label for n in graph.events() if any(d.by == "user" for d in n.history)}
         paths = select_paths(graph.paths(), settings.max_scenarios, first=insisted)
         self.manifest.scenarios = folder_names(paths)
-        run.write_manifest(self.manifest)
+        self.checkpoint()
         self.emit("paths", total=len(paths), names=self.manifest.scenarios)
         return paths
 
@@ -274,7 +274,16 @@ class MainJob:
                 self.outcomes.append(ScenarioOutcome(name, verdict, path=folder.path))
                 self.emit("scenario_done", name=name, feasible=False, status=verdict.status, reason=verdict.reason)
         self.timed("ground", t0)
+        self.checkpoint()
         return pending
+
+    def checkpoint(self) -> None:
+        """The stage times and model usage so far into run.json, so that a run killed after a
+        stage (kill -9, a lost machine) keeps them; a resume adds to them (:attr:`earlier_usage`
+        is what run.json held when this invocation began)."""
+        self.manifest.usage_last = self.llm.stats.as_dict()
+        self.manifest.usage = merge_usage(self.earlier_usage, self.manifest.usage_last)
+        self.run_folder.write_manifest(self.manifest)
 
     def keep(self, name: str, folder: ScenarioFolder, done: Verdict) -> None:
         """A scenario an earlier invocation finished: its outcome, its missing pictures or exports
