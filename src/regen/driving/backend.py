@@ -296,9 +296,12 @@ class DrivingBackend(DomainBackend):
         recorded in ``scenario.fallbacks``), else the rule-based grounder."""
         if path.behavior.domain != self.name:
             raise GroundingError(f"the driving backend cannot ground a {path.behavior.domain} behavior")
-        from regen.driving.grounding.confounders import quiet_context
+        from regen.driving.grounding.confounders import quiet_context, unhostable_context
 
-        path, notes = quiet_context(path, self.database(), robot=(self.report_hints.robot, *self.wording.robot_names))
+        robot = (self.report_hints.robot, *self.wording.robot_names)
+        path, left_out = unhostable_context(path, self.database(), robot=robot)
+        path, notes = quiet_context(path, self.database(), robot=robot)
+        notes = [*left_out, *notes]
         if llm is not None:
             from regen.driving.grounding.model import ground_with_model
 

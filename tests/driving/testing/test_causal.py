@@ -69,6 +69,33 @@ def test_another_actors_red_light_is_not_the_egos():
     assert any("a confounder" in f for f in scenario.fallbacks)
 
 
+def test_a_context_light_the_ego_cannot_meet_after_its_turn_is_left_out_and_said(tmp_path):
+    """Seen in a batch: the user's cause 'a pedestrian crosses the side road the ego-vehicle
+    turns into' got a traffic light from the model; after its turn the ego is past the
+    junction, so no map hosts a light and the user's cause failed to ground. The light (not
+    named by the cause) is left out, the verdict says so, and the pedestrian's scenario runs."""
+    adult = ("adult", {"behavior": ["cross_the_road"], "start_location": ["roadside_ahead"],
+                       "target_speed": ["fast"]})
+    path = chain("stop_after_turn", "a pedestrian crosses the side road the ego-vehicle turns into", adult, RED)
+    with pytest.raises(Exception, match="cannot host traffic_light1"):
+        ground_rule_based(path)  # the rules alone: the light cannot be placed
+    out = run_path(path, tmp_path / "01-adult", pictures=False)
+    scenario = json.loads((tmp_path / "01-adult" / "scenario.json").read_text())["scenario"]
+    assert [e["asset"] for e in scenario["entities"] if e["name"] != "ego"] == ["adult"]
+    (note,) = [f for f in out.verdict.fallbacks if "left out" in f]
+    assert note.startswith("traffic_light left out: the cause's words do not name this traffic light")
+    assert "after its turn the ego is past the junction" in note
+    assert out.verdict.status != "grounding_failed", out.verdict.reason
+
+
+def test_a_light_the_words_name_is_never_left_out():
+    """The same ego behavior with a cause that names the light: it stays, and the scenario is
+    ungroundable with the reason (a light the ego cannot meet cannot be the cause)."""
+    path = chain("stop_after_turn", "a traffic light turns red just as the vehicle turns right", RED)
+    with pytest.raises(Exception, match="cannot host traffic_light1"):
+        domains.make("driving").ground(path, None)
+
+
 def test_a_cause_too_far_away_to_matter_is_not_sufficient():
     scenario = ground_rule_based(chain("stop_abruptly", "a child runs across the road", CHILD))
     assert _check(scenario).status == "caused"

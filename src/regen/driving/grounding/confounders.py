@@ -10,6 +10,10 @@ it ``confounded``). So before grounding, a context entity whose state alone make
 (a green light, a siren off), unless the cause's words name that entity or that state. Each
 such change is returned in words and recorded in the scenario's ``fallbacks`` (the verdict and
 the report say it); nothing is changed silently.
+
+A context entity that no map of the ego's behavior can host (a light where the ego is past the
+junction after its turn) would make the whole scenario fail to ground: it is left out
+(:func:`unhostable_context`), said the same way.
 """
 
 from __future__ import annotations
@@ -64,4 +68,30 @@ def quiet_context(path: CausePath, db: AssetDatabase, *, robot: Sequence[str] = 
     return path.model_copy(update={"entities": entities}), notes
 
 
-__all__ = ["CONTROLS", "quiet_context"]
+def unhostable_context(path: CausePath, db: AssetDatabase, *, robot: Sequence[str] = ()
+                       ) -> tuple[CausePath, list[str]]:
+    """(``path`` without its context entities that no map of the ego's behavior can host, what
+    was left out in words). A context entity is one the cause's words do not name (as in
+    :func:`quiet_context`): 'a pedestrian crosses the side road the ego turns into' with a
+    traffic light the model added fails to ground where the ego is past the junction after its
+    turn; without the light, the pedestrian's scenario grounds. An entity the words name is never
+    left out (its scenario is ungroundable, and says why), nor the last one."""
+    from regen.driving.grounding.rules import entity_host_problem
+
+    causes = path.events[:-1] or path.events
+    named = named_by_causes(db, causes, robot=robot)
+    keep, notes = [], []
+    for i, pe in enumerate(path.entities):
+        why = None if answers_to_any(db, pe.asset, named) else entity_host_problem(path, i, db)
+        if why is None:
+            keep.append(pe)
+            continue
+        what = pe.asset.replace("_", " ")
+        notes.append(f"{pe.asset} left out: the cause's words do not name this {what}, and the ego's behavior "
+                     f"cannot meet one ({why.removeprefix('the map cannot host ')})")
+    if not keep or not notes:
+        return path, []
+    return path.model_copy(update={"entities": keep}), notes
+
+
+__all__ = ["CONTROLS", "quiet_context", "unhostable_context"]

@@ -94,6 +94,23 @@ def _host_problem(template: EgoTemplate, role: RoleChoice) -> str | None:
     return None
 
 
+def entity_host_problem(path: CausePath, index: int, db: AssetDatabase | None = None) -> str | None:
+    """Why no map of the path's ego behavior can host its entity ``index`` alone, placed as the
+    rules place it (its graph choices, else the defaults), or None. Other problems with the
+    entity (an unknown asset, a choice no rule honors) are grounding's to report: None here."""
+    db = db or driving_database()
+    pe = path.entities[index]
+    if pe.asset not in db.assets:
+        return None
+    try:
+        template = _template(path)
+        props = {k: v[0] for k, v in pe.properties.items() if v}
+        role = _graph_role(f"{pe.asset}1", pe.asset, props, db, template)
+    except GroundingError:
+        return None
+    return _host_problem(template, role)
+
+
 def _preferred(first: str, options: tuple[str, ...] | list[str]) -> list[str]:
     return ([first] if first in options else []) + [o for o in options if o != first]
 
