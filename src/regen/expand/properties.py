@@ -155,11 +155,11 @@ def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, en
                     rules.append((value, "; ".join(parts) or "nothing else"))
     example = ", ".join(f'"{p}": "<one value>"' for p in options)
 
-    def ask(retry: str | None):
+    def ask(retry: str | None, refused: tuple[str, str, list[str]] | None = None):
         prompt = render_prompt("property_edges", domain, chain=chain, event=event, entity=entity,
                                properties=[(p, d, v) for p, (d, v) in options.items()],
                                key=choices.key if rules else None, rules=rules, robot=domain.robot,
-                               retry=retry)
+                               retry=retry, refused=refused)
         prompt += ': {"role": "<what it does>", "choice": {' + example + "}}"
         return llm.ask(prompt, schema, purpose="property_edges", system=domain.system)
 
@@ -170,6 +170,13 @@ def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, en
         role = " ".join(got.value.role.split())
     picked = got.value.choice.model_dump()
     key = choices.key if choices is not None else None
+    can = [v for v in options[key][1] if v in choices.allowed] if choices is not None and key in options else []
+    if can and picked.get(key) is not None and picked[key] not in choices.allowed:
+        # a key value the domain cannot simulate here (a car turning at a junction the ego never
+        # meets): the schema leaves such values free, so the model is told and asked once more
+        got = ask(None, refused=(key, picked[key], can))
+        role = " ".join(got.value.role.split())
+        picked = got.value.choice.model_dump()
     out: dict[str, Judged] = {}
     for p, (_, values) in options.items():
         j = Judged(call_id=got.call_id)
