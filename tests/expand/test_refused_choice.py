@@ -46,6 +46,13 @@ def test_an_impossible_behavior_is_refused_and_asked_again(tmp_path) -> None:
             "behavior from: stationary | drive_forward | cross_the_road") in prompts[1]
 
 
+def test_the_second_answer_may_only_name_a_possible_behavior(tmp_path) -> None:
+    """The model that names the impossible behavior again is held to the possible ones by the
+    second schema: its answer is re-asked with the error, and a possible one is kept."""
+    judged, prompts = _select([BAD, BAD, GOOD], tmp_path)
+    assert list(judged["behavior"].accepted) == ["drive_forward"] and len(prompts) == 3
+
+
 def test_a_possible_behavior_is_asked_once(tmp_path) -> None:
     judged, prompts = _select([GOOD], tmp_path)
     assert list(judged["behavior"].accepted) == ["drive_forward"] and len(prompts) == 1

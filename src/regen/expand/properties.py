@@ -155,13 +155,13 @@ def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, en
                     rules.append((value, "; ".join(parts) or "nothing else"))
     example = ", ".join(f'"{p}": "<one value>"' for p in options)
 
-    def ask(retry: str | None, refused: tuple[str, str, list[str]] | None = None):
+    def ask(retry: str | None, refused: tuple[str, str, list[str]] | None = None, answer: type = schema):
         prompt = render_prompt("property_edges", domain, chain=chain, event=event, entity=entity,
                                properties=[(p, d, v) for p, (d, v) in options.items()],
                                key=choices.key if rules else None, rules=rules, robot=domain.robot,
                                retry=retry, refused=refused)
         prompt += ': {"role": "<what it does>", "choice": {' + example + "}}"
-        return llm.ask(prompt, schema, purpose="property_edges", system=domain.system)
+        return llm.ask(prompt, answer, purpose="property_edges", system=domain.system)
 
     got = ask(None)
     role = " ".join(got.value.role.split())
@@ -173,8 +173,12 @@ def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, en
     can = [v for v in options[key][1] if v in choices.allowed] if choices is not None and key in options else []
     if can and picked.get(key) is not None and picked[key] not in choices.allowed:
         # a key value the domain cannot simulate here (a car turning at a junction the ego never
-        # meets): the schema leaves such values free, so the model is told and asked once more
-        got = ask(None, refused=(key, picked[key], can))
+        # meets): the first schema leaves such values free (it keys the cached answers), so the
+        # model is told and asked once more with a schema of the possible values only
+        possible = [v for v in variants if get_args(v.model_fields[key].annotation)[0] in choices.allowed]
+        narrow = create_model("PropertyValues", __base__=Answer, role=(str, ...),
+                              choice=(possible[0] if len(possible) == 1 else Union[tuple(possible)], ...))  # noqa: UP007
+        got = ask(None, refused=(key, picked[key], can), answer=narrow)
         role = " ".join(got.value.role.split())
         picked = got.value.choice.model_dump()
     out: dict[str, Judged] = {}
