@@ -56,6 +56,32 @@ def test_a_process_that_loaded_the_model_exits_without_a_traceback() -> None:
     assert "Traceback" not in proc.stderr and "TypeError" not in proc.stderr, proc.stderr
 
 
+def test_other_threads_keep_their_output_while_the_model_loads() -> None:
+    """llama-cpp-python pointed the process's stdout and stderr at /dev/null while it loaded the
+    model: a batch lost the progress lines other behaviors printed in that second. A thread
+    numbers its lines on stderr while the model loads; every number arrives, and llama.cpp's own
+    load messages do not."""
+    import subprocess
+    import sys
+
+    pytest.importorskip("llama_cpp", reason="the 'local' extra is not installed")
+    code = ("import sys, threading, time\n"
+            "from regen.llm import LLM\n"
+            "stop = []\n"
+            "def tick():\n"
+            "    i = 0\n"
+            "    while not stop:\n"
+            "        print(f'tick {i}', file=sys.stderr, flush=True); i += 1; time.sleep(0.01)\n"
+            "t = threading.Thread(target=tick); t.start()\n"
+            "LLM('local').provider.llama()\n"
+            "stop.append(1); t.join()\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    ticks = [int(line.split()[1]) for line in proc.stderr.splitlines() if line.startswith("tick ")]
+    assert len(ticks) > 20 and ticks == list(range(len(ticks))), proc.stderr[-2000:]
+    assert not [line for line in proc.stderr.splitlines() if not line.startswith("tick ")], proc.stderr[-2000:]
+
+
 def test_the_grammar_first_sampler_writes_what_llama_cpps_own_chain_writes(monkeypatch) -> None:
     # the local provider checks the grammar on the best token first; at temperature 0 the answer
     # must be the one llama-cpp-python's sampler chain (grammar over the whole vocabulary) gives,

@@ -54,6 +54,49 @@ def _close_all() -> None:
 atexit.register(_close_all)
 
 
+class _Unredirected:
+    """Stands in for llama-cpp-python's ``suppress_stdout_stderr``, which points the process's
+    file descriptors 1 and 2 (and ``sys.stdout``/``sys.stderr``) at /dev/null while it loads a
+    model: every other thread's output in that second was lost with it (seen: a batch's progress
+    lines of three resumed behaviors, printed while another behavior loaded the model)."""
+
+    def __init__(self, disable: bool = True):
+        pass
+
+    def __enter__(self) -> _Unredirected:
+        return self
+
+    def __exit__(self, *exc: object) -> bool:
+        return False
+
+
+_LLAMA_LOG: Any = None  # the ctypes callback llama.cpp logs to (kept referenced)
+
+
+def _quiet_without_redirection() -> None:
+    """llama.cpp's own log goes to this module's logger at debug level (llama-cpp-python would
+    print its warnings on stderr), and nothing redirects the process's output while a model loads
+    (:class:`_Unredirected`). Once per process."""
+    global _LLAMA_LOG
+    if _LLAMA_LOG is not None:
+        return
+    import ctypes
+
+    import llama_cpp
+    import llama_cpp._internals
+    import llama_cpp.llama
+    import llama_cpp.llama_chat_format
+
+    def forward(level: int, text: bytes, user_data: Any) -> None:
+        log.debug("llama.cpp: %s", text.decode("utf-8", "replace").rstrip())
+
+    _LLAMA_LOG = llama_cpp.llama_log_callback(forward)
+    llama_cpp.llama_log_set(_LLAMA_LOG, ctypes.c_void_p(0))
+    for module in (llama_cpp.llama, llama_cpp._internals, llama_cpp.llama_chat_format):
+        if hasattr(module, "suppress_stdout_stderr"):
+            module.suppress_stdout_stderr = _Unredirected  # type: ignore[attr-defined]
+
+
 def load_llama(path: Path, n_ctx: int = 4096) -> Any:
     """Load (once per process) and return a ``llama_cpp.Llama``."""
     try:
@@ -63,6 +106,7 @@ def load_llama(path: Path, n_ctx: int = 4096) -> Any:
     key = (str(path), n_ctx)
     with _LOAD_LOCK:
         if key not in _LOADED:
+            _quiet_without_redirection()
             start = time.perf_counter()
             try:
                 _LOADED[key] = llama(model_path=str(path), n_ctx=n_ctx, n_threads=_threads(),
