@@ -70,6 +70,38 @@ def test_over_strict_fsm_is_verified_after_relaxation_in_the_main_job(tmp_path, 
 
 
 @pytest.mark.slow
+def test_a_run_killed_after_relaxing_resumes_from_the_grounded_fsm(tmp_path, monkeypatch):
+    """Seen in a batch: a worker killed after it wrote the relaxed FSM into scenario.json, but
+    before the verdict, left that FSM as the scenario; the retry verified it with no relaxation
+    said. The grounded scenario is kept aside and every new attempt starts from it."""
+    pytest.importorskip("scenic")
+    from regen.runfolder import ScenarioFolder
+
+    class Killed(BaseException):
+        pass
+
+    def killed(self, verdict):
+        raise Killed
+
+    _plug(monkeypatch, _child_model(then=[CHILD_ROLES, STRICT_FSM]))
+    run = tmp_path / "run"
+    folder = run / "scenarios" / "01-a-child-runs-across-the-road"
+    with monkeypatch.context() as mp:
+        mp.setattr(ScenarioFolder, "write_verdict", killed)
+        with pytest.raises(Killed):
+            _generate(STOP, "--domain", "driving", "--out", str(run), "--llm", "scripted", "-n", "1")
+    assert not (folder / "verdict.json").exists()
+    grounded = json.loads((folder / "scenario.grounded.json").read_text())["scenario"]["fsm"]
+    assert json.loads((folder / "scenario.json").read_text())["scenario"]["fsm"] != grounded  # relaxed
+    res = _generate(STOP, "--domain", "driving", "--out", str(run), "--llm", "scripted", "-n", "1")
+    assert res.exit_code == 0, res.output
+    verdict = json.loads((folder / "verdict.json").read_text())
+    assert verdict["status"] == "verified_after_relaxation", verdict["reason"]
+    assert "relaxed into 2 consecutive stages" in verdict["relaxations"][0]
+    assert json.loads((folder / "scenario.grounded.json").read_text())["scenario"]["fsm"] == grounded
+
+
+@pytest.mark.slow
 def test_model_errors_in_manipulation_grounding_stop_the_run_and_it_resumes(tmp_path, monkeypatch):
     pytest.importorskip("pybullet")
     expansion = dict(causes={DOOR: [PET]}, entities={PET: ["pet"]}, values={"location": ["outside the door"]},

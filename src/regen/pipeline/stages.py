@@ -184,7 +184,7 @@ def _simulate(domain: str, folder: ScenarioFolder, pictures: bool, export_option
         folder.write_verdict(verdict)
         return {"verdict": verdict.model_dump(mode="json"), "timings": timings}
     if judged.fsm != scenario.fsm:  # relaxed: the folder shows the FSM the verdict is about
-        folder.write_scenario(judged, backend.config(judged))
+        folder.write_relaxed(judged, backend.config(judged))
     folder.add_files(dict(sim.files))
     folder.add_timings(timings)
     # the verdict before the pictures and exports: a run killed while drawing keeps it, and the

@@ -25,6 +25,10 @@ class ScenarioFolder:
 
     PATH = "path.json"
     SCENARIO = "scenario.json"
+    #: the scenario as grounded, kept when the verdict's relaxed FSM replaced it in scenario.json:
+    #: an attempt that ends before its verdict (a killed worker, a killed run) starts again from
+    #: it, never from a relaxed FSM that would then verify with no relaxation said
+    GROUNDED = "scenario.grounded.json"
     TRACE = "trace.json"
     VERDICT = "verdict.json"
     TIMINGS = "timings.json"
@@ -34,7 +38,7 @@ class ScenarioFolder:
     #: folder's own files: what ``--fresh`` may remove (:mod:`.fresh`)
     WRITTEN = "written.json"
     #: the files every scenario folder may hold, by name
-    OWN: ClassVar[tuple[str, ...]] = (PATH, SCENARIO, TRACE, VERDICT, TIMINGS, FILES, ERROR, WRITTEN)
+    OWN: ClassVar[tuple[str, ...]] = (PATH, SCENARIO, GROUNDED, TRACE, VERDICT, TIMINGS, FILES, ERROR, WRITTEN)
 
     def __init__(self, path: Path):
         self.path = Path(path)
@@ -148,6 +152,13 @@ class ScenarioFolder:
     def write_scenario(self, scenario: Scenario, config: dict) -> None:
         write_json(self / self.SCENARIO, {"scenario": scenario.model_dump(mode="json"), "config": config})
 
+    def write_relaxed(self, scenario: Scenario, config: dict) -> None:
+        """scenario.json becomes the relaxed scenario the verdict is about; the grounded one is
+        kept first as :attr:`GROUNDED` (once: it is always the one grounding wrote)."""
+        if not (self / self.GROUNDED).is_file():
+            atomic_write_text(self / self.GROUNDED, (self / self.SCENARIO).read_text(encoding="utf-8"))
+        self.write_scenario(scenario, config)
+
     def write_trace(self, trace: Trace) -> None:
         write_json(self / self.TRACE, trace)
 
@@ -179,7 +190,9 @@ class ScenarioFolder:
         grounding's timings, unless ``grounding`` is to be redone as well)."""
         names = [self.TRACE, self.VERDICT, self.FILES, self.ERROR]
         if grounding:
-            names += [self.PATH, self.SCENARIO, self.TIMINGS]
+            names += [self.PATH, self.SCENARIO, self.GROUNDED, self.TIMINGS]
+        elif (self / self.GROUNDED).is_file():  # an attempt relaxed the FSM: back to the grounded one
+            (self / self.GROUNDED).replace(self / self.SCENARIO)
         for name in names:
             (self / name).unlink(missing_ok=True)
 
