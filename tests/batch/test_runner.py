@@ -195,3 +195,7 @@ def test_a_behavior_that_needs_the_model_waits_for_its_turn(tmp_path, fake_drivi
     busy.release()
     t.join(timeout=120)
     assert not t.is_alive() and got["rec"].status == "done" and fake_driving.kinds
+    # the wait for the turn is its own figure, not the expansion's time
+    timings = [json.loads(p.read_text())["timings"] for p in sorted((tmp_path / "batch").glob("*/run.json"))]
+    assert max(t.get("model_wait", 0.0) for t in timings) >= 2.5
+    assert all(t["expand"] < 2.5 for t in timings), timings

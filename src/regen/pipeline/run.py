@@ -113,17 +113,22 @@ class _TurnAtModel:
     expansion and grounding, whose calls then follow each other), so that a job whose answers
     are all cached (resumed, replayed) never waits behind another job's model calls."""
 
-    def __init__(self, gate: Callable[[], contextlib.AbstractContextManager[Any]]):
+    def __init__(self, gate: Callable[[], contextlib.AbstractContextManager[Any]],
+                 on_wait: Callable[[float, float], None] | None = None):
         self._gate = gate
         self._held: contextlib.AbstractContextManager[Any] | None = None
         self._lock = threading.Lock()
+        self._on_wait = on_wait  # (start, end) of the wait for the turn [perf_counter s]
 
     def take(self) -> None:
         with self._lock:
             if self._held is None:
+                start = time.perf_counter()
                 held = self._gate()
                 held.__enter__()
                 self._held = held
+                if self._on_wait is not None:
+                    self._on_wait(start, time.perf_counter())
 
     def __enter__(self) -> _TurnAtModel:
         return self
@@ -166,6 +171,7 @@ class MainJob:
         self.graph: ScenarioGraph | None = None
         self.graph_pictures: Future | None = None  # the graph's pictures drawn as a task (a batch)
         self.disk_full = False  # the run folder took no more (a full disk, a read-only folder)
+        self.model_waits: list[tuple[float, float]] = []  # waits for the turn at the model (a batch)
 
     # --- progress ----------------------------------------------------------------------------
 
@@ -178,9 +184,15 @@ class MainJob:
             self.on_event(ev)
 
     def timed(self, stage: str, t0: float) -> None:
-        """Add the time since ``t0`` to the stage's total in run.json (a resume adds to it)."""
+        """Add the time since ``t0`` to the stage's total in run.json (a resume adds to it),
+        less the time the job waited for its turn at the model (a batch), which goes to
+        ``model_wait``."""
         timings = self.manifest.timings
-        timings[stage] = timings.get(stage, 0.0) + time.perf_counter() - t0
+        end = time.perf_counter()
+        waited = sum(min(b, end) - max(a, t0) for a, b in self.model_waits if b > t0 and a < end)
+        timings[stage] = timings.get(stage, 0.0) + end - t0 - waited
+        if waited > 0:
+            timings["model_wait"] = timings.get("model_wait", 0.0) + waited
 
     # --- the stages --------------------------------------------------------------------------
 
@@ -189,7 +201,7 @@ class MainJob:
         it (:meth:`close`): done, interrupted, a model error, or a disk that takes no more."""
         run, manifest = self.run_folder, self.manifest
         try:
-            with _TurnAtModel(self.model_gate) as turn:
+            with _TurnAtModel(self.model_gate, on_wait=lambda a, b: self.model_waits.append((a, b))) as turn:
                 self.llm.before_model = turn.take  # taken at the first call the cache cannot answer
                 try:
                     paths = self.expand()
