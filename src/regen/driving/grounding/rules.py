@@ -14,7 +14,6 @@ property and the value; it is never swapped for another.
 from __future__ import annotations
 
 import hashlib
-import logging
 import math
 
 from regen.assets.database import AssetDatabase
@@ -37,8 +36,6 @@ from regen.driving.world.sensing import sensing_spec
 from regen.driving.world.setting import DrivingParams, DrivingWorld, ImportedActor
 from regen.driving.world.triggers import Trigger
 from regen.errors import ConfigError, GroundingError, UngroundableError
-
-log = logging.getLogger(__name__)
 
 DT = 0.1  # simulation step [s]
 
@@ -96,19 +93,15 @@ def _host_problem(template: EgoTemplate, role: RoleChoice) -> str | None:
 
 def entity_host_problem(path: CausePath, index: int, db: AssetDatabase | None = None) -> str | None:
     """Why no map of the path's ego behavior can host its entity ``index`` alone, placed as the
-    rules place it (its graph choices, else the defaults), or None. Other problems with the
-    entity (an unknown asset, a choice no rule honors) are grounding's to report: None here."""
-    db = db or driving_database()
-    pe = path.entities[index]
-    if pe.asset not in db.assets:
-        return None
+    rules place it, or None (other problems with the entity are grounding's to report)."""
+    db, pe = db or driving_database(), path.entities[index]
     try:
         template = _template(path)
         props = {k: v[0] for k, v in pe.properties.items() if v}
-        role = _graph_role(f"{pe.asset}1", pe.asset, props, db, template)
+        role = _graph_role(f"{pe.asset}1", pe.asset, props, db, template) if pe.asset in db.assets else None
     except GroundingError:
         return None
-    return _host_problem(template, role)
+    return None if role is None else _host_problem(template, role)
 
 
 def _preferred(first: str, options: tuple[str, ...] | list[str]) -> list[str]:
