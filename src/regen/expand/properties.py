@@ -7,6 +7,7 @@ one consistent value per property, after a sentence on the entity's role.
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from typing import TYPE_CHECKING, Any, Union, get_args
 
 from pydantic import Field, create_model
@@ -170,15 +171,13 @@ def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, en
         role = " ".join(got.value.role.split())
     picked = got.value.choice.model_dump()
     key = choices.key if choices is not None else None
-    can = [v for v in options[key][1] if v in choices.allowed] if choices is not None and key in options else []
-    if can and picked.get(key) is not None and picked[key] not in choices.allowed:
+    narrow = (_possible(variants, key, choices.allowed) if choices is not None and key in options
+              and picked.get(key) not in (None, *choices.allowed) else None)
+    if narrow is not None:
         # a key value the domain cannot simulate here (a car turning at a junction the ego never
         # meets): the first schema leaves such values free (it keys the cached answers), so the
         # model is told and asked once more with a schema of the possible values only
-        possible = [v for v in variants if get_args(v.model_fields[key].annotation)[0] in choices.allowed]
-        narrow = create_model("PropertyValues", __base__=Answer, role=(str, ...),
-                              choice=(possible[0] if len(possible) == 1 else Union[tuple(possible)], ...))  # noqa: UP007
-        got = ask(None, refused=(key, picked[key], can), answer=narrow)
+        got = ask(None, refused=(key, picked[key], narrow[1]), answer=narrow[0])
         role = " ".join(got.value.role.split())
         picked = got.value.choice.model_dump()
     out: dict[str, Judged] = {}
@@ -193,6 +192,17 @@ def select_properties(llm: LLM, domain: Domain, chain: list[str], event: str, en
         j.ruled.update(ruled.get(p, {}))
         out[p] = j
     return out, got.call_id
+
+
+def _possible(variants: list[Any], key: str, allowed: Collection[str | None]) -> tuple[type, list[str]] | None:
+    """The answer schema of the ``variants`` whose ``key`` value is ``allowed``, and those values
+    (None when no variant's is)."""
+    possible = [v for v in variants if get_args(v.model_fields[key].annotation)[0] in allowed]
+    if not possible:
+        return None
+    choice = possible[0] if len(possible) == 1 else Union[tuple(possible)]  # noqa: UP007
+    schema = create_model("PropertyValues", __base__=Answer, role=(str, ...), choice=(choice, ...))
+    return schema, list(dict.fromkeys(get_args(v.model_fields[key].annotation)[0] for v in possible))
 
 
 def _decided(options: dict[str, tuple[str, list[str]]], said: dict[str, str],

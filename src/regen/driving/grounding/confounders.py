@@ -19,6 +19,7 @@ junction after its turn) would make the whole scenario fail to ground: it is lef
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 from regen.assets.database import AssetDatabase
 from regen.core.graph import CausePath
@@ -43,10 +44,15 @@ def _names_own_state(db: AssetDatabase, asset: str, prop: str, event: str, path:
     return not any(words <= set(name_words(m)) for m in motions)
 
 
+def _cause_words(path: CausePath, db: AssetDatabase, robot: Sequence[str]) -> tuple[list[str], Any]:
+    """(the cause events, what their words name): an entity they do not name is context."""
+    causes = path.events[:-1] or path.events
+    return causes, named_by_causes(db, causes, robot=robot)
+
+
 def quiet_context(path: CausePath, db: AssetDatabase, *, robot: Sequence[str] = ()) -> tuple[CausePath, list[str]]:
     """(``path`` with its context entities' reacting states made neutral, what was changed in words)."""
-    causes = path.events[:-1] or path.events
-    named = named_by_causes(db, causes, robot=robot)
+    causes, named = _cause_words(path, db, robot)
     entities, notes = [], []
     for pe in path.entities:
         if answers_to_any(db, pe.asset, named):
@@ -78,8 +84,7 @@ def unhostable_context(path: CausePath, db: AssetDatabase, *, robot: Sequence[st
     left out (its scenario is ungroundable, and says why), nor the last one."""
     from regen.driving.grounding.rules import entity_host_problem
 
-    causes = path.events[:-1] or path.events
-    named = named_by_causes(db, causes, robot=robot)
+    _, named = _cause_words(path, db, robot)
     keep, notes = [], []
     for i, pe in enumerate(path.entities):
         why = None if answers_to_any(db, pe.asset, named) else entity_host_problem(path, i, db)

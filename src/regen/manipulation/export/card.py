@@ -11,6 +11,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from regen.core.io import atomic_write_text
+
 CARD = "README.md"
 CHECK_HEADING = "## Read back by LeRobot"
 
@@ -60,7 +62,7 @@ def card_text(written: dict[str, Any], repo_id: str) -> str:
 
 def write_card(out: Path, written: dict[str, Any], repo_id: str) -> Path:
     path = Path(out) / CARD
-    path.write_text(card_text(written, repo_id), encoding="utf-8")
+    atomic_write_text(path, card_text(written, repo_id))
     return path
 
 
@@ -71,7 +73,7 @@ def add_check(out: Path, note: str) -> None:
         return
     text = path.read_text(encoding="utf-8")
     text = text.split(f"\n{CHECK_HEADING}\n", 1)[0].rstrip("\n") + "\n"
-    path.write_text(f"{text}\n{CHECK_HEADING}\n\n{_cell(note)}\n", encoding="utf-8")
+    atomic_write_text(path, f"{text}\n{CHECK_HEADING}\n\n{_cell(note)}\n")
 
 
 __all__ = ["CARD", "add_check", "card_text", "write_card"]
