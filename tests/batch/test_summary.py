@@ -27,7 +27,7 @@ from regen.batch.summary import (  # noqa: E402
 from regen.core.behavior import Behavior  # noqa: E402
 from regen.core.io import write_json  # noqa: E402
 from regen.core.verdict import Causal, Verdict  # noqa: E402
-from regen.errors import ConfigError, DependencyNotInstalled  # noqa: E402
+from regen.errors import ConfigError  # noqa: E402
 from regen.harness.cases import CaseResult, SuiteReport  # noqa: E402
 from regen.runfolder import RunManifest, RunSettings  # noqa: E402
 
@@ -174,7 +174,7 @@ def test_policy_tests_give_collision_rates_and_none_says_so(batch):
     assert "50 %" in page
 
 
-def test_diversity_over_the_feasible_scenarios(batch, monkeypatch):
+def test_diversity_over_the_feasible_scenarios(batch):
     enc = WordEncoder()
     div = summarize_batch(batch, encoder=enc)["diversity"]
     texts = enc.seen[0]
@@ -187,20 +187,14 @@ def test_diversity_over_the_feasible_scenarios(batch, monkeypatch):
     assert fig["embedding"] == pytest.approx(1.0 - 1.0 / np.sqrt(7 * 11) / 3, abs=1e-12)
     assert "embedding" in div["computed"]
 
-    def no_nltk(_texts):
-        raise DependencyNotInstalled("nltk", "eval", "Self-BLEU")
-
-    monkeypatch.setattr(batch_diversity, "self_bleu_diversity", no_nltk)
     div = summarize_batch(batch, embeddings=False)["diversity"]
-    assert div["computed"] == []
-    assert div["skipped"]["embedding"] == "turned off"
-    assert "nltk" in div["skipped"]["self_bleu"] and "[eval]" in div["skipped"]["self_bleu"]
+    assert div["computed"] == ["self_bleu"]  # Self-BLEU needs no optional package
+    assert div["skipped"] == {"embedding": "turned off"}
     page = write_batch_report(batch, summarize_batch(batch, embeddings=False)).read_text()
-    assert "Computed: none." in page and "turned off" in page
+    assert "Computed: Self-BLEU diversity." in page and "turned off" in page
 
 
-def test_self_bleu_is_computed_when_nltk_is_there(batch):
-    pytest.importorskip("nltk")
+def test_self_bleu_is_computed_with_the_embeddings(batch):
     div = summarize_batch(batch, encoder=WordEncoder())["diversity"]
     assert div["computed"] == ["embedding", "self_bleu"]
     assert 0.0 < div["figures"][0]["self_bleu"] <= 1.0

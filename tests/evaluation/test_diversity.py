@@ -19,8 +19,6 @@ from regen.evaluation.diversity import (
     tokenize,
 )
 
-pytest.importorskip("nltk")
-
 UNRELATED = [
     "The ego vehicle brakes because a pedestrian crosses the road.",
     "Quarterly earnings of the bank rose by four percent.",

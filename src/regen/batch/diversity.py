@@ -1,8 +1,8 @@
 """The diversity of what a batch made: the paper's embedding and Self-BLEU diversity (section
 3.3, :mod:`regen.evaluation.diversity`) over the texts of every feasible scenario of the batch,
-overall and per domain. Both metrics need the ``eval`` extra; one that cannot be computed is
-skipped with the reason (``Diversity.skipped``), never an error, so a batch's summary never fails
-for want of an optional package."""
+overall and per domain. The embedding metric needs the ``eval`` extra (Self-BLEU needs nothing
+more); when it cannot be computed it is skipped with the reason (``Diversity.skipped``), never an
+error, so a batch's summary never fails for want of an optional package."""
 
 from __future__ import annotations
 
@@ -85,16 +85,11 @@ def batch_diversity(texts_by_domain: dict[str, list[str]], *, embeddings: bool =
     if not usable:
         return out
     enc = _encoder(embeddings, encoder, out)
-    bleu = True
     for scope, texts in usable.items():
         fig = DiversityFigure(scope=scope, texts=len(scopes[scope]))
         if enc is not None:
             fig.embedding = embedding_diversity(texts, enc)
-        if bleu:
-            try:
-                fig.self_bleu = self_bleu_diversity(texts)
-            except RegenError as exc:  # nltk (the eval extra) is not installed
-                out.skipped["self_bleu"], bleu = str(exc), False
+        fig.self_bleu = self_bleu_diversity(texts)
         out.figures.append(fig)
     out.computed = [m for m in METRICS if m not in out.skipped]
     return out

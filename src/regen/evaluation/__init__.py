@@ -2,8 +2,8 @@
 
 Diversity (Sentence-BERT embeddings, Self-BLEU) under the paper's sampling protocol,
 feasibility breakdown per behavior and scenario, edge-construction accuracy, controllability.
-The embedding model (onnxruntime, tokenizers) and nltk come with the ``eval`` extra and are
-imported only when used.
+The embedding model (onnxruntime, tokenizers) comes with the ``eval`` extra and is imported only
+when used; Self-BLEU needs nothing more (:mod:`regen.evaluation.bleu`).
 """
 
 from regen.evaluation.controllability import ControllabilityReport, controllability

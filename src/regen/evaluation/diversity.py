@@ -4,8 +4,9 @@
   (all-MiniLM-L6-v2) embeddings, over all unordered pairs of distinct items.
 - Self-BLEU diversity = 1 - Self-BLEU, where Self-BLEU is the mean over items of the sentence
   BLEU-4 of that item against all the other items as references (Texygen's definition), with
-  nltk's ``sentence_bleu``, uniform weights (1/4 each), and ``SmoothingFunction().method1``
-  (epsilon 0.1 added to zero n-gram counts, as Texygen does). Tokens are lowercased words and
+  BLEU-4 exactly as nltk's ``sentence_bleu`` computes it with uniform weights (1/4 each) and
+  ``SmoothingFunction().method1`` (epsilon 0.1 added to zero n-gram counts, as Texygen does), in
+  :mod:`regen.evaluation.bleu` without nltk. Tokens are lowercased words and
   single punctuation marks (``tokenize``), which needs no tokenizer download.
 
 The paper's protocol (``compare_sets``): n = the smallest set size among the compared sets;
@@ -23,10 +24,10 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from pydantic import BaseModel, Field
 
-from regen.errors import ConfigError, DependencyNotInstalled
+from regen.errors import ConfigError
+from regen.evaluation.bleu import bleu4_of_counts, ngram_counts
 
 _TOKEN = re.compile(r"\w+|[^\w\s]")
-BLEU_WEIGHTS = (0.25, 0.25, 0.25, 0.25)  # BLEU-4
 
 
 def tokenize(text: str) -> list[str]:
@@ -64,27 +65,22 @@ def embedding_diversity(texts: Sequence[str], encoder=None) -> float:
     return embedding_diversity_of_vectors(encoder.encode(list(texts)))
 
 
-def _bleu_tools():
-    try:
-        from nltk.translate.bleu_score import SmoothingFunction, sentence_bleu
-    except ImportError as exc:
-        raise DependencyNotInstalled("nltk", "eval", "Self-BLEU") from exc
-    return sentence_bleu, SmoothingFunction().method1
-
-
 def self_bleu(texts: Sequence[str]) -> float:
-    """Mean BLEU-4 of each text against all others as references (nltk, smoothing method1).
+    """Mean BLEU-4 of each text against all others as references (nltk's figure, smoothing
+    method1; :mod:`regen.evaluation.bleu`).
 
     Needs at least two texts. Identical texts give 1.0; texts sharing no word give ~0.
     """
     if len(texts) < 2:
         raise ConfigError("Self-BLEU needs at least two texts")
-    sentence_bleu, smooth = _bleu_tools()
     toks = [tokenize(t) for t in texts]
+    counts = [ngram_counts(t) for t in toks]
+    lens = [len(t) for t in toks]
     scores = []
-    for i, hyp in enumerate(toks):
-        refs = [t for j, t in enumerate(toks) if j != i]
-        scores.append(sentence_bleu(refs, hyp, weights=BLEU_WEIGHTS, smoothing_function=smooth))
+    for i in range(len(toks)):
+        others = [j for j in range(len(toks)) if j != i]
+        scores.append(bleu4_of_counts(counts[i], lens[i], [counts[j] for j in others],
+                                      [lens[j] for j in others]))
     return float(np.mean(scores))
 
 
