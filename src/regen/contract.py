@@ -470,6 +470,12 @@ class DomainBackend(ABC):
 
         raise NotCheckable(f"the {self.name} domain has no reference robot to check causes with")
 
+    def warm(self) -> float:
+        """Do the once-per-process work of a first simulation (imports, the simulator's world
+        model) ahead of it, in a worker that has simulated nothing yet; the seconds it took. A batch
+        has its workers do it while its first behaviors are still expanded. Default: nothing."""
+        return 0.0
+
     def config(self, scenario: Scenario) -> dict:
         """The scenario in the paper's config form (narrative, entities, vehicles, fsm)."""
         return {"narrative": scenario.narrative, "causal_graph": scenario.causal_graph,

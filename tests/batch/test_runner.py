@@ -6,6 +6,7 @@ and folders it refuses."""
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import pytest
@@ -199,3 +200,25 @@ def test_a_behavior_that_needs_the_model_waits_for_its_turn(tmp_path, fake_drivi
     timings = [json.loads(p.read_text())["timings"] for p in sorted((tmp_path / "batch").glob("*/run.json"))]
     assert max(t.get("model_wait", 0.0) for t in timings) >= 2.5
     assert all(t["expand"] < 2.5 for t in timings), timings
+
+
+def test_each_worker_warms_while_the_behaviors_expand_and_a_finished_batch_warms_none(
+        tmp_path, fake_driving, monkeypatch) -> None:
+    marks = tmp_path / "warmed"
+    marks.mkdir()
+
+    def warm(self) -> float:  # runs in the forked workers: one file per process
+        import os
+
+        (marks / str(os.getpid())).touch()
+        return 0.0
+
+    monkeypatch.setattr(FakeBackend, "warm", warm)
+    out = tmp_path / "batch"
+    assert run_batch(_spec(tmp_path), out, workers=2).status == "done"
+    pids = {int(p.name) for p in marks.iterdir()}
+    assert len(pids) == 2 and os.getpid() not in pids  # each of the two workers, not the driver
+    for p in marks.iterdir():
+        p.unlink()
+    assert run_batch(_spec(tmp_path), out, workers=2).status == "done"
+    assert not list(marks.iterdir())  # nothing left to simulate: no worker warms

@@ -28,6 +28,13 @@ def die_once(marker: str) -> int:
     return os.getpid()
 
 
+def slow_pid(seconds: float) -> int:
+    import time
+
+    time.sleep(seconds)
+    return os.getpid()
+
+
 def always_die(counter: str) -> None:
     with open(counter, "a") as f:
         f.write("x")
@@ -139,3 +146,12 @@ def test_a_dispatcher_failure_fails_the_scenarios_instead_of_hanging(monkeypatch
             t.submit(square, 1)
     finally:
         t.close(cancel=True)
+
+
+def test_warming_runs_once_on_each_worker_and_a_failure_stays_quiet(tasks) -> None:
+    workers = {w.process.pid for w in tasks._pool}
+    pids = [f.result(timeout=30) for f in tasks.warm(slow_pid, 0.5)]
+    assert sorted(pids) == sorted(workers)  # one each, not both on the first idle worker
+    failed = tasks.warm(boom, "no simulator here")
+    assert all(isinstance(f.exception(timeout=30), ValueError) for f in failed)
+    assert tasks.submit(square, 7).result(timeout=30) == 49  # the workers go on

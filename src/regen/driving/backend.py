@@ -9,6 +9,7 @@ frames) and ``export`` (the .scenic program and an OpenSCENARIO replay). The pip
 from __future__ import annotations
 
 import logging
+import time
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -333,6 +334,17 @@ class DrivingBackend(DomainBackend):
         from regen.driving.simulation.scenario import simulate_scenario
 
         return simulate_scenario(scenario)
+
+    def warm(self) -> float:
+        """Scenic, the world model, the exports' package and the causal check's reference driver
+        loaded ahead of a worker's first scenario (:mod:`regen.driving.simulation.warm`)."""
+        t0 = time.perf_counter()
+        from regen.driving.simulation.warm import warm
+
+        warm()
+        import regen.driving.testing.causal  # noqa: F401 (the but-for check's reference driver)
+
+        return time.perf_counter() - t0
 
     def render(self, scenario: Scenario, trace: Trace, verdict: Verdict, out_dir: Path) -> dict[str, Path]:
         from regen.driving.render.scenario import render_scenario

@@ -134,6 +134,12 @@ def ground_stage(backend: DomainBackend, path: CausePath, llm: LLM | None, folde
 # --- stage: simulate, verify, draw, export -------------------------------------------------------
 
 
+def warm_stage(names: tuple[str, ...]) -> dict[str, float]:
+    """In a worker that has simulated nothing yet: each domain's once-per-process work
+    (:meth:`regen.contract.DomainBackend.warm`), seconds per domain."""
+    return {name: domains.make(name).warm() for name in names}
+
+
 def simulate_stage(domain: str, scenario_dir: str, pictures: bool = True,
                    export_options: dict[str, bool] | None = None) -> dict[str, Any]:
     """Simulate, verify, draw and export one grounded scenario folder. Runs in worker processes
@@ -346,4 +352,4 @@ def run_path(path: CausePath, folder: str | Path, *, llm: LLM | None = None, see
     return ScenarioOutcome(sf.name, verdict, timings=sf.timings(), path=sf.path)
 
 
-__all__ = ["ScenarioOutcome", "ground_stage", "needs_drawing", "redraw_stage", "run_path", "simulate_stage"]
+__all__ = ["ScenarioOutcome", "ground_stage", "needs_drawing", "redraw_stage", "run_path", "simulate_stage", "warm_stage"]

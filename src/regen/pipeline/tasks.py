@@ -43,7 +43,15 @@ class ScenarioTasks(Protocol):
 
     def submit(self, fn: Callable[..., Any], *args: Any) -> Future: ...
 
+    def warm(self, fn: Callable[..., Any], *args: Any) -> list[Future]: ...
+
     def close(self, *, cancel: bool = False) -> None: ...
+
+
+def _log_warm_failure(f: Future) -> None:
+    exc = f.exception() if not f.cancelled() else None
+    if exc is not None:  # the worker's first scenario does the work instead, and says what fails
+        log.debug("warming a worker failed: %s: %s", type(exc).__name__, exc)
 
 
 def _worker_main(conn: Connection, parent: int) -> None:
@@ -119,6 +127,14 @@ class ProcessTasks:
                 self._thread.start()
             self._lock.notify_all()
         return fut
+
+    def warm(self, fn: Callable[..., Any], *args: Any) -> list[Future]:
+        """``fn(*args)`` once per worker, ahead of the scenarios (each idle worker takes one):
+        the once-per-process work of a first scenario, done while the caller still expands."""
+        futures = [self.submit(fn, *args) for _ in range(self.workers)]
+        for f in futures:
+            f.add_done_callback(_log_warm_failure)
+        return futures
 
     def _start_worker(self) -> _Worker:
         parent, child = self._ctx.Pipe()
@@ -311,6 +327,15 @@ class RayTasks:
 
         inner.add_done_callback(done)
         return outer
+
+    def warm(self, fn: Callable[..., Any], *args: Any) -> list[Future]:
+        """``fn(*args)`` once per CPU of the cluster, ahead of the scenarios (Ray starts a worker
+        process per task running at once): a fresh Ray worker's imports and first compilation
+        happen while the driver still expands, not in its first scenario."""
+        futures = [self.submit(fn, *args) for _ in range(self.workers)]
+        for f in futures:
+            f.add_done_callback(_log_warm_failure)
+        return futures
 
     def close(self, *, cancel: bool = False) -> None:
         ray = _ray()
