@@ -178,3 +178,15 @@ def test_the_reference_world_reuses_the_scripted_program_just_run_and_records_wh
     assert within.scripted_ego and within.compiled is shared.compiled
     traces = [loop.run_policy(p, ReferenceDriver(), step_timeout=None).trace for p in (shared, own)]
     assert traces[0].model_dump_json() == traces[1].model_dump_json()
+
+
+def test_following_a_turn_is_no_lane_change_and_going_round_debris_is_one():
+    from driving_chains import FEASIBLE
+
+    turn = ground_rule_based(FEASIBLE["stop_after_turn"][1])  # a box on the side road after the turn
+    world = reference_world(turn, ["box1"])
+    without = world.run(frozenset({"box1"}))  # it turns right and drives on
+    assert not without.shown and "changes lane" not in without.summary, without.summary
+    debris = ground_rule_based(FEASIBLE["change_lane"][1])  # straight road, debris in the lane
+    run = reference_world(debris, ["debris1"]).run(frozenset())
+    assert run.shown and run.summary.startswith("changes lane at t = "), run.summary

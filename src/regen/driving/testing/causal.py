@@ -76,10 +76,28 @@ def without(scenario: Scenario, removed: frozenset[str]) -> Scenario:
         "parameters": {k: v for k, v in scenario.parameters.items() if k not in removed}})
 
 
-def _lateral(trace: Trace, frame) -> np.ndarray:
+def _lateral(trace: Trace, frame, route: tuple[tuple[float, float], ...] = ()) -> np.ndarray:
+    """The ego's signed offset [m] to the left of its ``route`` at every step: from the nearest
+    segment of the polyline (the first extended backwards, the last forwards), so that following
+    the route through a turn is no move across; without a route, from the road's ``frame``."""
     ego = trace.actors["ego"]
-    x, y = np.asarray(ego.x), np.asarray(ego.y)
-    return (x - frame.ox) * -frame.uy + (y - frame.oy) * frame.ux
+    x, y = np.asarray(ego.x, dtype=float), np.asarray(ego.y, dtype=float)
+    pts = np.asarray(route, dtype=float).reshape(-1, 2)
+    d = np.diff(pts, axis=0)
+    length = np.hypot(d[:, 0], d[:, 1])
+    keep = length > 1e-6
+    if not keep.any():
+        return (x - frame.ox) * -frame.uy + (y - frame.oy) * frame.ux
+    p0, u, length = pts[:-1][keep], d[keep] / length[keep, None], length[keep]
+    rx, ry = x[:, None] - p0[None, :, 0], y[:, None] - p0[None, :, 1]
+    lon = rx * u[None, :, 0] + ry * u[None, :, 1]
+    lat = -rx * u[None, :, 1] + ry * u[None, :, 0]
+    lo = np.zeros(len(length))
+    lo[0] = -np.inf
+    hi = length.copy()
+    hi[-1] = np.inf
+    err = np.hypot(lon - np.clip(lon, lo, hi), lat)
+    return lat[np.arange(len(x)), np.argmin(err, axis=1)]
 
 
 def _onset_before(speed: np.ndarray, k: int, dt: float, *, rising: bool = False) -> int:
@@ -94,20 +112,22 @@ def _onset_before(speed: np.ndarray, k: int, dt: float, *, rising: bool = False)
     return i
 
 
-def shows(trace: Trace, reaction: str, *, frame, lane_width: float, cruise: float
-          ) -> tuple[bool, int | None, str]:
+def shows(trace: Trace, reaction: str, *, frame, lane_width: float, cruise: float,
+          route: tuple[tuple[float, float], ...] = ()) -> tuple[bool, int | None, str]:
     """(whether the reference ego shows ``reaction``, the step its reaction started, what it did
-    in words: where it does not, and changes lane instead, that too)."""
-    shown, onset, words = _shows(trace, reaction, frame=frame, lane_width=lane_width, cruise=cruise)
+    in words: where it does not, and changes lane instead, that too). A lane change is a move
+    across its ``route`` (the road's ``frame`` without one)."""
+    kw = {"frame": frame, "lane_width": lane_width, "cruise": cruise, "route": route}
+    shown, onset, words = _shows(trace, reaction, **kw)
     if not shown and reaction != "changes lane":
-        moved, _, how = _shows(trace, "changes lane", frame=frame, lane_width=lane_width, cruise=cruise)
+        moved, _, how = _shows(trace, "changes lane", **kw)
         if moved:  # a slow truck it overtakes rather than slowing behind it
             words += f"; it {how.split(' (')[0]} instead"
     return shown, onset, words
 
 
-def _shows(trace: Trace, reaction: str, *, frame, lane_width: float, cruise: float
-           ) -> tuple[bool, int | None, str]:
+def _shows(trace: Trace, reaction: str, *, frame, lane_width: float, cruise: float,
+           route: tuple[tuple[float, float], ...] = ()) -> tuple[bool, int | None, str]:
     v = np.asarray(trace.actors["ego"].speed, dtype=float)
     t = trace.times
     if reaction == "stops":
@@ -156,7 +176,7 @@ def _shows(trace: Trace, reaction: str, *, frame, lane_width: float, cruise: flo
             if not still[0] or (still.size and t[int(np.argmin(still))] - t[0] < WAITED) else \
             "never drives off after waiting"
     if reaction == "changes lane":
-        d = _lateral(trace, frame)
+        d = _lateral(trace, frame, route)
         off = np.abs(d - d[0])
         across = np.flatnonzero(off >= LANE_SHARE * lane_width)
         if across.size:
@@ -226,7 +246,7 @@ class DrivingReferenceWorld:
         if ep.trace is None:
             return ReferenceRun(removed=sorted(removed), shown=False, happened=False,
                                 summary=f"the run failed: {ep.failure}")
-        shown, onset, words = shows(ep.trace, self.behavior, frame=self.frame,
+        shown, onset, words = shows(ep.trace, self.behavior, frame=self.frame, route=self.route,
                                     lane_width=self.frame.lane_width, cruise=self.cruise)
         at = cause_time(world, ep.trace, self.cause - removed) if self.cause - removed else None
         t_on = float(ep.trace.times[onset]) if onset is not None else None
