@@ -64,3 +64,36 @@ def test_the_limit_is_the_solvers_own_work_so_a_busy_machine_decides_the_same():
     solver = make_solver(0.5)
     assert solver.parameters.max_deterministic_time == 0.5
     assert solver.parameters.max_time_in_seconds >= 10 * 0.5
+
+
+def test_models_carry_ortools_own_old_names_once_on_the_class():
+    from regen.cpsat import cp_model, model_class
+
+    ours, theirs = model_class()(), cp_model().CpModel()
+    old = sorted(n for n in vars(theirs) if n[:1].isupper())  # what ortools sets on each model
+    assert old and not [n for n in vars(ours) if n[:1].isupper()]  # none per model here
+    for m in (ours, theirs):  # the same model through those names, proto for proto
+        x, y = m.NewIntVar(0, 10, "x"), m.NewIntVar(0, 10, "y")
+        b = m.NewBoolVar("b")
+        m.Add(x + y >= 7).OnlyEnforceIf(b)
+        m.AddBoolOr([b])
+        m.AddAbsEquality(m.NewIntVar(0, 10, "d"), x - 5)
+        m.Minimize(y)
+    assert str(ours.proto) == str(theirs.proto) and "constraints" in str(ours.proto)
+    assert all(callable(getattr(ours, n)) for n in old)
+
+
+def test_a_caller_that_reads_only_the_status_skips_the_minimal_set(monkeypatch):
+    M, x, y = _model()
+    M.require("x at least 60", x >= 60)
+    M.require("y at least 60", y >= 60)
+    M.require("x plus y at most 100", x + y <= 100)
+    M.require("x at least 1", x >= 1)
+
+    def no_minimising(*_a, **_k):
+        raise AssertionError("minimised for a caller that did not ask")
+
+    monkeypatch.setattr(NamedModel, "minimise", no_minimising)
+    out = M.solve(1.0, explain=False)
+    assert out.status == "infeasible" and set(out.conflicts) >= {"x at least 60", "y at least 60",
+                                                                  "x plus y at most 100"}

@@ -158,3 +158,27 @@ def test_a_full_cache_file_is_a_full_disk(tmp_path: Path) -> None:
         for i in range(200):
             cache.put(f"k{i}", "p", "call", Completion(text="x" * 4000), 0.1)
     assert err.value.errno == errno.ENOSPC and str(tmp_path / "c.sqlite") == err.value.filename
+
+
+def test_a_schema_is_made_once_per_model_class_and_handed_out_fresh(monkeypatch) -> None:
+    from pydantic import BaseModel as _Base
+
+    from regen.llm.client import json_schema_of
+
+    class Reply(_Base):
+        name: str
+        count: int = 0
+
+    made = []
+    real = Reply.model_json_schema.__func__
+
+    def counted(cls, *a, **k):
+        made.append(cls)
+        return real(cls, *a, **k)
+
+    monkeypatch.setattr(Reply, "model_json_schema", classmethod(counted))
+    first = json_schema_of(Reply)
+    assert first == real(Reply) and made == [Reply]
+    first["properties"]["name"]["type"] = "integer"  # a caller's change stays its own
+    again = json_schema_of(Reply)
+    assert again == real(Reply) and again is not first and made == [Reply]

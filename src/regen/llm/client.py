@@ -7,6 +7,7 @@ import json
 import logging
 import threading
 import time
+import weakref
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -82,6 +83,22 @@ def _format_errors(exc: ValidationError) -> str:
         loc = ".".join(str(x) for x in err["loc"]) or "(answer)"
         parts.append(f"{shorten(loc, 100)}: {err['msg']}")
     return "; ".join(parts)
+
+
+_SCHEMAS: weakref.WeakKeyDictionary[type, str] = weakref.WeakKeyDictionary()
+_SCHEMAS_LOCK = threading.Lock()
+
+
+def json_schema_of(model: type[BaseModel]) -> dict[str, Any]:
+    """``model.model_json_schema()``, made once per model class (pydantic builds it afresh at
+    every call: a third of an expansion replayed from the cache) and handed out as a new dict."""
+    with _SCHEMAS_LOCK:
+        text = _SCHEMAS.get(model)
+    if text is None:
+        text = json.dumps(model.model_json_schema())
+        with _SCHEMAS_LOCK:
+            _SCHEMAS[model] = text
+    return json.loads(text)
 
 
 class LLM:
@@ -203,7 +220,7 @@ class LLM:
                                else [dict(m) for m in messages])  # type: ignore[misc]
         if system:
             msgs.insert(0, {"role": "system", "content": system})
-        json_schema = schema.model_json_schema()
+        json_schema = json_schema_of(schema)
         problem = ""
         all_cached = True
         invalid: list[str] = []  # cache keys of this call's answers that failed validation

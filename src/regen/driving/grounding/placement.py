@@ -48,9 +48,11 @@ def solved_params(M: PlacementModel, value: Callable[[Any], int],
             for a in actors}
 
 
-def solve(ego: EgoTemplate, actors: list[ActorSpec], *, seed: int = 0, time_limit: float = 2.0) -> Solution:
+def solve(ego: EgoTemplate, actors: list[ActorSpec], *, seed: int = 0, time_limit: float = 2.0,
+          explain: bool = True) -> Solution:
     """Solve the placement model (``time_limit`` [s] of solver work,
-    :func:`regen.cpsat.make_solver`); an infeasible model names its conflicting constraints."""
+    :func:`regen.cpsat.make_solver`); an infeasible model names its conflicting constraints
+    (a minimal set; ``explain=False``, for a caller that reads only the status: the solver's own)."""
     t0 = time.perf_counter()
     M = placement_model(ego, actors)
     specs = [for_actor(a.asset, a.primitive) for a in actors]
@@ -66,7 +68,7 @@ def solve(ego: EgoTemplate, actors: list[ActorSpec], *, seed: int = 0, time_limi
             terms.append(dev)
     if terms:
         M.m.Minimize(sum(terms))
-    out = M.solve(time_limit, seed=int(seed))  # one worker: deterministic; the models are tiny
+    out = M.solve(time_limit, seed=int(seed), explain=explain)  # one worker: deterministic; the models are tiny
     report = SolverReport(status=out.status, wall_time=time.perf_counter() - t0)
     if out.status == "infeasible":
         report.conflicts = out.conflicts or ["(no core found)"]

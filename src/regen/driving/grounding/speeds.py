@@ -40,7 +40,7 @@ def solvable_speeds(template: EgoTemplate, asset: str, primitive: str, start: st
     ok = tuple(sp for sp in speeds
                if solve(t, [ActorSpec(name="probe1", asset=asset, primitive=primitive, location=start,
                                       speed_class=sp, properties=dict(properties), size=size)],
-                        time_limit=PROBE_TIME_LIMIT).report.status in ("optimal", "feasible"))
+                        time_limit=PROBE_TIME_LIMIT, explain=False).report.status in ("optimal", "feasible"))
     return ok or speeds
 
 
