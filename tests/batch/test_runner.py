@@ -202,6 +202,36 @@ def test_a_behavior_that_needs_the_model_waits_for_its_turn(tmp_path, fake_drivi
     assert all(t["expand"] < 2.5 for t in timings), timings
 
 
+def test_a_wait_for_the_model_is_in_run_json_while_it_lasts(tmp_path, fake_driving, monkeypatch) -> None:
+    """A batch killed while a behavior waits for its turn keeps the wait so far (before, run.json
+    got it only when the wait ended: a resumed behavior showed 691 s of wall time and 67 s in
+    its stages, the rest in no figure)."""
+    import threading
+    import time
+
+    from regen.batch import runner
+    from regen.pipeline import run as run_module
+
+    monkeypatch.setattr(run_module, "WAIT_SLICE", 0.2)
+    busy = threading.Semaphore(0)
+    monkeypatch.setattr(runner, "model_gates", lambda planned: {"scripted": busy})
+    out = tmp_path / "batch"
+    t = threading.Thread(target=lambda: run_batch(_spec(tmp_path), out, workers=1), daemon=True)
+    t.start()
+    time.sleep(2.5)
+    assert t.is_alive() and fake_driving.kinds == []  # still waiting: nothing asked yet
+    waits = [json.loads(p.read_text())["timings"] for p in sorted(out.glob("*/run.json"))]
+    assert len(waits) == 2 and all(w.get("model_wait", 0.0) >= 1.5 for w in waits), waits
+    assert all(w.get("expand", 0.0) < 0.5 for w in waits), waits  # the wait is not the expansion's
+    for _ in range(2):
+        busy.release()
+    t.join(timeout=120)
+    assert not t.is_alive()
+    final = [json.loads(p.read_text())["timings"] for p in sorted(out.glob("*/run.json"))]
+    assert max(w["model_wait"] for w in final) >= 2.4  # counted once, not once per slice
+    assert all(w["model_wait"] < 30 for w in final)
+
+
 def test_each_worker_warms_while_the_behaviors_expand_and_a_finished_batch_warms_none(
         tmp_path, fake_driving, monkeypatch) -> None:
     marks = tmp_path / "warmed"

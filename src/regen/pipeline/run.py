@@ -107,25 +107,38 @@ def generate(behavior: Behavior, out: Path, *, settings: RunSettings | None = No
         run.unlock()
 
 
+WAIT_SLICE = 10.0  # [s] while a job waits for its turn at the model, run.json is updated this often
+
+
 class _TurnAtModel:
     """A job's turn at the model (``model_gate``, a batch's one-at-a-time local model): taken at
     the job's first call that goes to the model, then held until the block ends (the job's
     expansion and grounding, whose calls then follow each other), so that a job whose answers
-    are all cached (resumed, replayed) never waits behind another job's model calls."""
+    are all cached (resumed, replayed) never waits behind another job's model calls. A gate that
+    can be acquired with a timeout (a semaphore) is waited for in slices of :data:`WAIT_SLICE`,
+    ``on_waiting`` told after each, so that a batch killed while a job waits keeps that wait."""
 
     def __init__(self, gate: Callable[[], contextlib.AbstractContextManager[Any]],
-                 on_wait: Callable[[float, float], None] | None = None):
+                 on_wait: Callable[[float, float], None] | None = None,
+                 on_waiting: Callable[[float, float], None] | None = None):
         self._gate = gate
         self._held: contextlib.AbstractContextManager[Any] | None = None
         self._lock = threading.Lock()
         self._on_wait = on_wait  # (start, end) of the wait for the turn [perf_counter s]
+        self._on_waiting = on_waiting  # (start, now) while it lasts
 
     def take(self) -> None:
         with self._lock:
             if self._held is None:
                 start = time.perf_counter()
                 held = self._gate()
-                held.__enter__()
+                acquire = getattr(held, "acquire", None)
+                if acquire is None:
+                    held.__enter__()
+                else:  # its __exit__ releases what this acquired
+                    while not acquire(timeout=WAIT_SLICE):
+                        if self._on_waiting is not None:
+                            self._on_waiting(start, time.perf_counter())
                 self._held = held
                 if self._on_wait is not None:
                     self._on_wait(start, time.perf_counter())
@@ -172,6 +185,9 @@ class MainJob:
         self.graph_pictures: Future | None = None  # the graph's pictures drawn as a task (a batch)
         self.disk_full = False  # the run folder took no more (a full disk, a read-only folder)
         self.model_waits: list[tuple[float, float]] = []  # waits for the turn at the model (a batch)
+        self._waiting: tuple[float, float] | None = None  # the wait going on: (start, now)
+        self._stage: tuple[str, float] | None = None  # the stage running, and when it was last credited
+        self._timing = threading.RLock()
 
     # --- progress ----------------------------------------------------------------------------
 
@@ -183,16 +199,48 @@ class MainJob:
         if self.on_event:
             self.on_event(ev)
 
-    def timed(self, stage: str, t0: float) -> None:
-        """Add the time since ``t0`` to the stage's total in run.json (a resume adds to it),
-        less the time the job waited for its turn at the model (a batch), which goes to
-        ``model_wait``."""
-        timings = self.manifest.timings
-        end = time.perf_counter()
-        waited = sum(min(b, end) - max(a, t0) for a, b in self.model_waits if b > t0 and a < end)
-        timings[stage] = timings.get(stage, 0.0) + end - t0 - waited
-        if waited > 0:
-            timings["model_wait"] = timings.get("model_wait", 0.0) + waited
+    def begin(self, stage: str) -> None:
+        """``stage`` runs from now; its time is credited as it goes (:meth:`credit`)."""
+        with self._timing:
+            self._stage = (stage, time.perf_counter())
+
+    def credit(self) -> None:
+        """Add the time since the running stage was last credited to its total in run.json (a
+        resume adds to it), less the time the job waited for its turn at the model (a batch),
+        which goes to ``model_wait``. As a stage ends, and while the job waits for the model."""
+        with self._timing:
+            if self._stage is None:
+                return
+            stage, t0 = self._stage
+            end = time.perf_counter()
+            waits = [*self.model_waits, *([self._waiting] if self._waiting else [])]
+            waited = sum(min(b, end) - max(a, t0) for a, b in waits if b > t0 and a < end)
+            timings = self.manifest.timings
+            timings[stage] = timings.get(stage, 0.0) + end - t0 - waited
+            if waited > 0:
+                timings["model_wait"] = timings.get("model_wait", 0.0) + waited
+            self._stage = (stage, end)
+
+    def end_stage(self) -> None:
+        """The running stage's time credited; no stage runs."""
+        with self._timing:
+            self.credit()
+            self._stage = None
+
+    def waited(self, start: float, end: float) -> None:
+        """The wait for the turn at the model ended."""
+        with self._timing:
+            self.model_waits.append((start, end))
+            self._waiting = None
+
+    def waiting(self, start: float, now: float) -> None:
+        """Still waiting for the turn at the model: the wait so far credited and run.json
+        written, so that a kill now keeps it (seen: a resumed behavior whose 620 s of waiting
+        before the kill were in no figure of the batch's report)."""
+        with self._timing:
+            self._waiting = (start, now)
+            self.credit()
+            self.checkpoint()
 
     # --- the stages --------------------------------------------------------------------------
 
@@ -201,7 +249,7 @@ class MainJob:
         it (:meth:`close`): done, interrupted, a model error, or a disk that takes no more."""
         run, manifest = self.run_folder, self.manifest
         try:
-            with _TurnAtModel(self.model_gate, on_wait=lambda a, b: self.model_waits.append((a, b))) as turn:
+            with _TurnAtModel(self.model_gate, on_wait=self.waited, on_waiting=self.waiting) as turn:
                 self.llm.before_model = turn.take  # taken at the first call the cache cannot answer
                 try:
                     paths = self.expand()
@@ -236,7 +284,7 @@ class MainJob:
         their folder names in run.json."""
         run, settings, backend = self.run_folder, self.settings, self.backend
         self.emit("stage", stage="expand")
-        t0 = time.perf_counter()
+        self.begin("expand")
         self.graph = graph = expand_behavior(
             self.behavior, self.llm, database=backend.database(), backend=backend, limits=settings.limits(),
             prior=settings.prior, candidates=settings.candidates, forced_causes=settings.forced_causes,
@@ -252,7 +300,7 @@ class MainJob:
             self.graph_pictures = self.tasks.submit(draw_graph_files, str(Path(run.path).resolve()))
         else:
             save_graph(graph, run.path, pictures=settings.pictures)
-        self.timed("expand", t0)
+        self.end_stage()
         insisted = {n.label for n in graph.events() if any(d.by == "user" for d in n.history)}
         paths = select_paths(graph.paths(), settings.max_scenarios, first=insisted)
         self.manifest.scenarios = folder_names(paths)
@@ -264,7 +312,7 @@ class MainJob:
         """Ground each cause path into its scenario folder; the names of those left to simulate
         (grounded now or by an earlier invocation). A finished scenario is kept (:meth:`keep`)."""
         self.emit("stage", stage="ground")
-        t0 = time.perf_counter()
+        self.begin("ground")
         pending: list[str] = []
         for i, (path, name) in enumerate(zip(paths, self.manifest.scenarios, strict=True)):
             folder = self.run_folder.scenario(name)
@@ -285,7 +333,7 @@ class MainJob:
             else:
                 self.outcomes.append(ScenarioOutcome(name, verdict, path=folder.path))
                 self.emit("scenario_done", name=name, feasible=False, status=verdict.status, reason=verdict.reason)
-        self.timed("ground", t0)
+        self.end_stage()
         self.checkpoint()
         return pending
 
@@ -293,9 +341,10 @@ class MainJob:
         """The stage times and model usage so far into run.json, so that a run killed after a
         stage (kill -9, a lost machine) keeps them; a resume adds to them (:attr:`earlier_usage`
         is what run.json held when this invocation began)."""
-        self.manifest.usage_last = self.llm.stats.as_dict()
-        self.manifest.usage = merge_usage(self.earlier_usage, self.manifest.usage_last)
-        self.run_folder.write_manifest(self.manifest)
+        with self._timing:
+            self.manifest.usage_last = self.llm.stats.as_dict()
+            self.manifest.usage = merge_usage(self.earlier_usage, self.manifest.usage_last)
+            self.run_folder.write_manifest(self.manifest)
 
     def keep(self, name: str, folder: ScenarioFolder, done: Verdict) -> None:
         """A scenario an earlier invocation finished: its outcome, its missing pictures or exports
@@ -314,7 +363,7 @@ class MainJob:
         tasks (the batch's, or worker processes when the settings ask for more than one and more
         than one is pending), else here."""
         self.emit("stage", stage="simulate", total=len(pending))
-        t0 = time.perf_counter()
+        self.begin("simulate")
         dirs = {name: str(self.run_folder.scenario(name).path) for name in pending}
         if self.tasks is not None and dirs:
             self.simulate_as_tasks(self.tasks, dirs)
@@ -328,7 +377,7 @@ class MainJob:
             tasks.close()
         else:
             self.simulate_here(dirs)
-        self.timed("simulate", t0)
+        self.end_stage()
 
     def simulate_as_tasks(self, tasks: ScenarioTasks, dirs: dict[str, str]) -> None:
         """The scenarios of ``dirs`` (name -> folder) as ``tasks``, collected in run order. One
