@@ -244,6 +244,7 @@ def test_each_worker_warms_while_the_behaviors_expand_and_a_finished_batch_warms
         return 0.0
 
     monkeypatch.setattr(FakeBackend, "warm", warm)
+    monkeypatch.setattr(os, "cpu_count", lambda: 8)  # the two workers leave the driver cores
     out = tmp_path / "batch"
     assert run_batch(_spec(tmp_path), out, workers=2).status == "done"
     pids = {int(p.name) for p in marks.iterdir()}

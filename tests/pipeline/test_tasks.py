@@ -148,10 +148,17 @@ def test_a_dispatcher_failure_fails_the_scenarios_instead_of_hanging(monkeypatch
         t.close(cancel=True)
 
 
-def test_warming_runs_once_on_each_worker_and_a_failure_stays_quiet(tasks) -> None:
+def test_warming_runs_once_on_each_worker_and_a_failure_stays_quiet(tasks, monkeypatch) -> None:
+    monkeypatch.setattr(os, "cpu_count", lambda: 8)  # the two workers leave the caller cores
     workers = {w.process.pid for w in tasks._pool}
     pids = [f.result(timeout=30) for f in tasks.warm(slow_pid, 0.5)]
     assert sorted(pids) == sorted(workers)  # one each, not both on the first idle worker
     failed = tasks.warm(boom, "no simulator here")
     assert all(isinstance(f.exception(timeout=30), ValueError) for f in failed)
     assert tasks.submit(square, 7).result(timeout=30) == 49  # the workers go on
+
+
+def test_workers_that_take_every_core_are_not_warmed(tasks, monkeypatch) -> None:
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)  # the two workers and the caller share them
+    assert tasks.warm(slow_pid, 0.5) == []
+    assert tasks.submit(square, 3).result(timeout=30) == 9
