@@ -162,3 +162,45 @@ def test_workers_that_take_every_core_are_not_warmed(tasks, monkeypatch) -> None
     monkeypatch.setattr(os, "cpu_count", lambda: 2)  # the two workers and the caller share them
     assert tasks.warm(slow_pid, 0.5) == []
     assert tasks.submit(square, 3).result(timeout=30) == 9
+
+
+def import_slow_module(name: str) -> str:
+    import importlib
+
+    return importlib.import_module(name).WHERE
+
+
+def test_a_worker_is_forked_after_another_threads_import_not_during_it(tmp_path, monkeypatch) -> None:
+    """A replacement worker is forked while the batch's other threads run; forked while one of
+    them imported a module, it got that module's lock held for ever (a batch hung this way after
+    a worker was killed). The fork waits for the import, and the worker has the whole module."""
+    import sys
+    import threading
+    import time
+
+    from regen.pipeline.tasks import imports_running
+
+    flag = tmp_path / "go"
+    (tmp_path / "regen_slow_module.py").write_text(
+        "import os, time\n"
+        f"while not os.path.exists({str(flag)!r}):\n"
+        "    time.sleep(0.02)\n"
+        "WHERE = 'imported'\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    importing = threading.Thread(target=import_slow_module, args=("regen_slow_module",), daemon=True)
+    importing.start()
+    time.sleep(0.5)  # the thread is inside the module's body, holding its import lock
+    assert imports_running() == ["regen_slow_module"]
+    threading.Timer(1.0, flag.write_text, args=("",)).start()
+    t0 = time.monotonic()
+    tasks = ProcessTasks(1)  # forks once the import is done
+    try:
+        assert time.monotonic() - t0 >= 0.4 and not importing.is_alive()
+        assert tasks.submit(import_slow_module, "regen_slow_module").result(timeout=30) == "imported"
+    finally:
+        flag.write_text("")
+        importing.join(timeout=10)
+        for w in tasks._pool:  # a worker hung in the import (the fault) must not hang the tests
+            w.process.kill()
+        tasks.close(cancel=True)
+        sys.modules.pop("regen_slow_module", None)

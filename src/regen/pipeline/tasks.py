@@ -19,6 +19,7 @@ import logging
 import multiprocessing as mp
 import os
 import threading
+import time
 from collections.abc import Callable
 from concurrent.futures import Future
 from dataclasses import dataclass, field
@@ -74,6 +75,41 @@ def _worker_main(conn: Connection, parent: int) -> None:
                 conn.send(("error", exc))
             except Exception:  # an exception that does not pickle: its text
                 conn.send(("error", RuntimeError(f"{type(exc).__name__}: {exc}")))
+
+
+IMPORT_WAIT = 60.0  # [s] a worker is forked after at most this long waiting for other threads' imports
+
+
+def imports_running() -> list[str]:
+    """Modules another thread of this process is importing now (holding its import lock)."""
+    from importlib import _bootstrap
+
+    me = threading.get_ident()
+    locks = getattr(_bootstrap, "_module_locks", None)
+    if not isinstance(locks, dict):  # another Python's import machinery: nothing known
+        return []
+    running = []
+    for name, ref in list(locks.items()):
+        lock = ref() if callable(ref) else None
+        if lock is not None and getattr(lock, "count", 0) and getattr(lock, "owner", me) != me:
+            running.append(name)
+    return running
+
+
+def wait_for_imports(limit: float = IMPORT_WAIT) -> None:
+    """Before a fork from a process whose other threads run (a worker started in place of one
+    that died, mid-batch): wait until no other thread is importing a module. A child forked
+    while one was inherits that module's import lock, held by a thread it does not have, and
+    waits for ever at its first import of it (seen: a killed worker's replacement hung in
+    ``import_module`` and the batch with it); re-importing the half-run module in the child
+    instead would run its registrations twice. Python holds its global import lock across the
+    fork itself, so an import that starts now waits until the fork is done."""
+    deadline = time.monotonic() + limit
+    while (running := imports_running()) and time.monotonic() < deadline:
+        time.sleep(0.005)
+    if running:
+        log.warning("forking a worker while %s are still being imported (waited %.0f s)",
+                    ", ".join(running), limit)
 
 
 @dataclass
@@ -144,6 +180,8 @@ class ProcessTasks:
     def _start_worker(self) -> _Worker:
         parent, child = self._ctx.Pipe()
         p = self._ctx.Process(target=_worker_main, args=(child, os.getpid()), daemon=True, name="regen-worker")
+        if self._ctx.get_start_method() == "fork":
+            wait_for_imports()
         p.start()
         child.close()
         return _Worker(p, parent)
@@ -358,4 +396,4 @@ def _call(fn: Callable[..., Any], *args: Any) -> Any:
     return fn(*args)
 
 
-__all__ = ["ATTEMPTS", "ProcessTasks", "RayTasks", "ScenarioTasks", "WorkerDied"]
+__all__ = ["ATTEMPTS", "ProcessTasks", "RayTasks", "ScenarioTasks", "WorkerDied", "imports_running", "wait_for_imports"]
