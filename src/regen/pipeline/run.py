@@ -184,8 +184,9 @@ class MainJob:
         self.graph: ScenarioGraph | None = None
         self.graph_pictures: Future | None = None  # the graph's pictures drawn as a task (a batch)
         self.disk_full = False  # the run folder took no more (a full disk, a read-only folder)
-        self.model_waits: list[tuple[float, float]] = []  # waits for the turn at the model (a batch)
-        self._waiting: tuple[float, float] | None = None  # the wait going on: (start, now)
+        # the wait for the turn at the model (a batch; taken once per invocation): (start, end),
+        # or (start, now) while it lasts
+        self._wait: tuple[float, float] | None = None
         self._stage: tuple[str, float] | None = None  # the stage running, and when it was last credited
         self._timing = threading.RLock()
 
@@ -213,8 +214,8 @@ class MainJob:
                 return
             stage, t0 = self._stage
             end = time.perf_counter()
-            waits = [*self.model_waits, *([self._waiting] if self._waiting else [])]
-            waited = sum(min(b, end) - max(a, t0) for a, b in waits if b > t0 and a < end)
+            a, b = self._wait or (end, end)
+            waited = max(0.0, min(b, end) - max(a, t0))
             timings = self.manifest.timings
             timings[stage] = timings.get(stage, 0.0) + end - t0 - waited
             if waited > 0:
@@ -230,15 +231,14 @@ class MainJob:
     def waited(self, start: float, end: float) -> None:
         """The wait for the turn at the model ended."""
         with self._timing:
-            self.model_waits.append((start, end))
-            self._waiting = None
+            self._wait = (start, end)
 
     def waiting(self, start: float, now: float) -> None:
         """Still waiting for the turn at the model: the wait so far credited and run.json
         written, so that a kill now keeps it (seen: a resumed behavior whose 620 s of waiting
         before the kill were in no figure of the batch's report)."""
         with self._timing:
-            self._waiting = (start, now)
+            self._wait = (start, now)
             self.credit()
             self.checkpoint()
 

@@ -55,6 +55,21 @@ def _log_warm_failure(f: Future) -> None:
         log.debug("warming a worker failed: %s: %s", type(exc).__name__, exc)
 
 
+def _warm_each(tasks: ScenarioTasks, spare_core: bool, fn: Callable[..., Any], args: tuple[Any, ...]
+               ) -> list[Future]:
+    """``fn(*args)`` submitted once per worker of ``tasks`` where they leave this machine a
+    core (``spare_core``), its failure only logged: the shared part of both executors' ``warm``.
+    Without a spare core the warming takes the caller's (its expansion, its model) and is paid
+    again on no scenario's behalf (2 workers on 2 cores, measured: the batch took as long, or
+    0.3 s longer on a local Ray)."""
+    if not spare_core:
+        return []
+    futures = [tasks.submit(fn, *args) for _ in range(tasks.workers)]
+    for f in futures:
+        f.add_done_callback(_log_warm_failure)
+    return futures
+
+
 def _worker_main(conn: Connection, parent: int) -> None:
     """A worker process: run what the parent sends, one task at a time, until it sends None."""
     from regen.pipeline.workers import worker_init
@@ -166,16 +181,9 @@ class ProcessTasks:
 
     def warm(self, fn: Callable[..., Any], *args: Any) -> list[Future]:
         """``fn(*args)`` once per worker, ahead of the scenarios (each idle worker takes one):
-        the once-per-process work of a first scenario, done while the caller still expands.
-        Only where the workers leave this machine a core: otherwise it takes the caller's (its
-        expansion, its model) and is paid again on no scenario's behalf (2 workers on 2 cores,
-        measured: the batch took as long, or 0.3 s longer on a local Ray)."""
-        if self.workers >= (os.cpu_count() or 1):
-            return []
-        futures = [self.submit(fn, *args) for _ in range(self.workers)]
-        for f in futures:
-            f.add_done_callback(_log_warm_failure)
-        return futures
+        the once-per-process work of a first scenario, done while the caller still expands;
+        only where the workers leave this machine a core (:func:`_warm_each`)."""
+        return _warm_each(self, self.workers < (os.cpu_count() or 1), fn, args)
 
     def _start_worker(self) -> _Worker:
         parent, child = self._ctx.Pipe()
@@ -377,13 +385,8 @@ class RayTasks:
         """``fn(*args)`` once per CPU of the cluster, ahead of the scenarios (Ray starts a worker
         process per task running at once): a fresh Ray worker's imports and first compilation
         happen while the driver still expands, not in its first scenario. Not where the cluster
-        is this machine alone and takes all its cores (as :meth:`ProcessTasks.warm`)."""
-        if self._local_only and self.workers >= (os.cpu_count() or 1):
-            return []
-        futures = [self.submit(fn, *args) for _ in range(self.workers)]
-        for f in futures:
-            f.add_done_callback(_log_warm_failure)
-        return futures
+        is this machine alone and takes all its cores (:func:`_warm_each`)."""
+        return _warm_each(self, not self._local_only or self.workers < (os.cpu_count() or 1), fn, args)
 
     def close(self, *, cancel: bool = False) -> None:
         ray = _ray()

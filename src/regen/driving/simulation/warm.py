@@ -12,16 +12,13 @@ except the generated map's file, which every scenario on that map needs anyway.
 
 from __future__ import annotations
 
-import time
-
 WARM_MAP = "straight"  # the first map the scenarios of the ego templates use
 
 
-def warm(map_name: str = WARM_MAP) -> float:
-    """Compile an ego-only program on ``map_name`` and import what a scenario's exports import;
-    the seconds it took. (:meth:`regen.driving.backend.DrivingBackend.warm` adds the causal
-    check's modules, which this layer does not import.)"""
-    t0 = time.perf_counter()
+def warm(map_name: str = WARM_MAP) -> None:
+    """Compile an ego-only program on ``map_name`` and import what a scenario's exports import.
+    (:meth:`regen.driving.backend.DrivingBackend.warm` adds the causal check's modules, which
+    this layer does not import, and times the whole.)"""
     from regen.driving.simulation.program import write_program
     from regen.driving.simulation.run import compile_program
     from regen.driving.world.maps import ensure_map
@@ -35,8 +32,6 @@ def warm(map_name: str = WARM_MAP) -> float:
         from scenariogeneration import xosc  # noqa: F401 (what the OpenSCENARIO export imports)
     except ModuleNotFoundError:  # the export itself says what to install, when it runs
         pass
-
-    return time.perf_counter() - t0
 
 
 __all__ = ["WARM_MAP", "warm"]
