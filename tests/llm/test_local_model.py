@@ -73,8 +73,10 @@ def test_other_threads_keep_their_output_while_the_model_loads() -> None:
             "    while not stop:\n"
             "        print(f'tick {i}', file=sys.stderr, flush=True); i += 1; time.sleep(0.01)\n"
             "t = threading.Thread(target=tick); t.start()\n"
-            "LLM('local').provider.llama()\n"
-            "stop.append(1); t.join()\n")
+            "try:\n"
+            "    LLM('local').provider.llama()\n"
+            "finally:  # a failed load fails the test instead of leaving the thread ticking\n"
+            "    stop.append(1); t.join()\n")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr
     ticks = [int(line.split()[1]) for line in proc.stderr.splitlines() if line.startswith("tick ")]
