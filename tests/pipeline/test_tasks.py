@@ -4,6 +4,7 @@ worker that dies loses only the scenario it was running, which runs once more an
 from __future__ import annotations
 
 import os
+import threading
 from pathlib import Path
 
 import pytest
@@ -33,6 +34,17 @@ def slow_pid(seconds: float) -> int:
 
     time.sleep(seconds)
     return os.getpid()
+
+
+HELD = threading.Lock()  # held by a thread of the test process while a replacement worker starts
+
+
+def take_held_lock() -> bool:
+    """In a worker: whether HELD can be taken (a forked child inherits it held for ever)."""
+    got = HELD.acquire(timeout=3)
+    if got:
+        HELD.release()
+    return got
 
 
 def always_die(counter: str) -> None:
@@ -204,3 +216,28 @@ def test_a_worker_is_forked_after_another_threads_import_not_during_it(tmp_path,
             w.process.kill()
         tasks.close(cancel=True)
         sys.modules.pop("regen_slow_module", None)
+
+
+def test_a_worker_started_in_place_of_a_dead_one_inherits_no_lock_another_thread_holds() -> None:
+    """A replacement worker starts while the caller's other threads run (drawing, calling models);
+    forked, it inherited every lock one of them held at that instant, held for ever (an import's
+    hung a batch). It is a fresh process: the lock is free in it, and the scenario runs."""
+    import signal
+
+    t = ProcessTasks(1)
+    release = threading.Event()
+    holder = threading.Thread(target=lambda: (HELD.acquire(), release.wait(30), HELD.release()), daemon=True)
+    try:
+        assert t.submit(take_held_lock).result(timeout=60) is True  # the first worker, forked before
+        victim = t._pool[0].process
+        os.kill(victim.pid, signal.SIGKILL)
+        victim.join(timeout=10)
+        holder.start()
+        while not HELD.locked():
+            pass
+        assert t.submit(take_held_lock).result(timeout=60) is True
+        assert t._pool[0].process.pid != victim.pid
+    finally:
+        release.set()
+        holder.join(timeout=10)
+        t.close(cancel=True)

@@ -112,13 +112,14 @@ def imports_running() -> list[str]:
 
 
 def wait_for_imports(limit: float = IMPORT_WAIT) -> None:
-    """Before a fork from a process whose other threads run (a worker started in place of one
-    that died, mid-batch): wait until no other thread is importing a module. A child forked
-    while one was inherits that module's import lock, held by a thread it does not have, and
-    waits for ever at its first import of it (seen: a killed worker's replacement hung in
-    ``import_module`` and the batch with it); re-importing the half-run module in the child
-    instead would run its registrations twice. Python holds its global import lock across the
-    fork itself, so an import that starts now waits until the fork is done."""
+    """Before a pool's first fork, where the caller already runs other threads (``regen
+    generate --workers`` starts its pool after expansion): wait until no other thread is
+    importing a module. A child forked while one was inherits that module's import lock, held
+    by a thread it does not have, and waits for ever at its first import of it (seen: a killed
+    worker's forked replacement hung in ``import_module`` and the batch with it; replacements
+    are spawned now); re-importing the half-run module in the child instead would run its
+    registrations twice. Python holds its global import lock across the fork itself, so an
+    import that starts now waits until the fork is done."""
     deadline = time.monotonic() + limit
     while (running := imports_running()) and time.monotonic() < deadline:
         time.sleep(0.005)
@@ -153,9 +154,11 @@ class ProcessTasks:
         if workers < 1:
             raise ConfigError(f"workers must be at least 1, not {workers}")
         self.workers = workers
-        # forked where the platform can (workers start at once and see this process's set-up, as
-        # the process pools before them did); spawned elsewhere
+        # the first workers forked where the platform can (they start at once and see this
+        # process's set-up, as the process pools before them did); spawned elsewhere. A worker
+        # started later, in place of one that died, is always spawned (:meth:`_start_worker`).
         self._ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+        self._later_ctx = mp.get_context("spawn")
         self._queue: collections.deque[_Task] = collections.deque()
         self._pool: list[_Worker] = []
         self._lock = threading.Condition()
@@ -185,10 +188,17 @@ class ProcessTasks:
         only where the workers leave this machine a core (:func:`_warm_each`)."""
         return _warm_each(self, self.workers < (os.cpu_count() or 1), fn, args)
 
-    def _start_worker(self) -> _Worker:
-        parent, child = self._ctx.Pipe()
-        p = self._ctx.Process(target=_worker_main, args=(child, os.getpid()), daemon=True, name="regen-worker")
-        if self._ctx.get_start_method() == "fork":
+    def _start_worker(self, *, later: bool = False) -> _Worker:
+        """A worker process. ``later`` (in place of one that died, while this process's other
+        threads run: drawing, calling models, importing): a fresh interpreter, not a fork. A
+        child forked then inherits every lock another thread holds at that instant (an import's,
+        matplotlib's, a model client's) held for ever, and hangs at its first use (seen: a killed
+        worker's replacement hung in an import, and the batch with it). It costs the replacement
+        its imports (seconds), paid once per death."""
+        ctx = self._later_ctx if later else self._ctx
+        parent, child = ctx.Pipe()
+        p = ctx.Process(target=_worker_main, args=(child, os.getpid()), daemon=True, name="regen-worker")
+        if ctx.get_start_method() == "fork":
             wait_for_imports()
         p.start()
         child.close()
@@ -204,7 +214,7 @@ class ProcessTasks:
                 self._left_idle(idle)
                 continue
             if idle is None and len(self._pool) < self.workers:
-                idle = self._start_worker()
+                idle = self._start_worker(later=True)
                 self._pool.append(idle)
             if idle is None:
                 return
