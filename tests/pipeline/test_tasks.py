@@ -170,6 +170,41 @@ def test_warming_runs_once_on_each_worker_and_a_failure_stays_quiet(tasks, monke
     assert tasks.submit(square, 7).result(timeout=30) == 49  # the workers go on
 
 
+def test_an_instant_warm_up_still_reaches_each_worker(tasks, monkeypatch) -> None:
+    """A warm-up that ends at once (a worker already warm) must not let the first worker take
+    the second worker's too (seen in a batch on a loaded machine: one worker warmed twice, the
+    other cold): the pool is slow to hand out work here, and each worker still gets one."""
+    import time
+
+    monkeypatch.setattr(os, "cpu_count", lambda: 8)
+    slow_submit = tasks.submit
+
+    def submit(fn, *args):
+        fut = slow_submit(fn, *args)
+        time.sleep(0.3)  # the first worker is done before the next one is asked
+        return fut
+
+    monkeypatch.setattr(tasks, "submit", submit)
+    workers = sorted(w.process.pid for w in tasks._pool)
+    for _ in range(3):
+        assert sorted(f.result(timeout=30) for f in tasks.warm(os.getpid)) == workers
+    assert tasks.submit(square, 4).result(timeout=30) == 16 and tasks.deaths == 0
+
+
+def test_a_worker_killed_while_warming_counts_no_death_and_is_replaced(tasks, monkeypatch) -> None:
+    import signal
+
+    monkeypatch.setattr(os, "cpu_count", lambda: 8)
+    futs = tasks.warm(slow_pid, 2.0)
+    victim = tasks._pool[0].process
+    os.kill(victim.pid, signal.SIGKILL)
+    outcomes = [f.exception(timeout=30) for f in futs]
+    assert sum(isinstance(e, WorkerDied) for e in outcomes) == 1 and outcomes.count(None) == 1
+    assert tasks.deaths == 0  # no scenario was running
+    pids = {f.result(timeout=60) for f in [tasks.submit(slow_pid, 0.2) for _ in range(4)]}
+    assert victim.pid not in pids and len(tasks._pool) == 2
+
+
 def test_workers_that_take_every_core_are_not_warmed(tasks, monkeypatch) -> None:
     monkeypatch.setattr(os, "cpu_count", lambda: 2)  # the two workers and the caller share them
     assert tasks.warm(slow_pid, 0.5) == []

@@ -55,16 +55,17 @@ def _log_warm_failure(f: Future) -> None:
         log.debug("warming a worker failed: %s: %s", type(exc).__name__, exc)
 
 
-def _warm_each(tasks: ScenarioTasks, spare_core: bool, fn: Callable[..., Any], args: tuple[Any, ...]
-               ) -> list[Future]:
-    """``fn(*args)`` submitted once per worker of ``tasks`` where they leave this machine a
-    core (``spare_core``), its failure only logged: the shared part of both executors' ``warm``.
+def _warm_each(tasks: ScenarioTasks, spare_core: bool, fn: Callable[..., Any], args: tuple[Any, ...],
+               each: Callable[[], list[Future]] | None = None) -> list[Future]:
+    """``fn(*args)`` once per worker of ``tasks`` (``each()`` where the executor can address its
+    workers, else submitted once per worker) where they leave this machine a core
+    (``spare_core``), its failure only logged: the shared part of both executors' ``warm``.
     Without a spare core the warming takes the caller's (its expansion, its model) and is paid
     again on no scenario's behalf (2 workers on 2 cores, measured: the batch took as long, or
     0.3 s longer on a local Ray)."""
     if not spare_core:
         return []
-    futures = [tasks.submit(fn, *args) for _ in range(tasks.workers)]
+    futures = each() if each is not None else [tasks.submit(fn, *args) for _ in range(tasks.workers)]
     for f in futures:
         f.add_done_callback(_log_warm_failure)
     return futures
@@ -134,6 +135,7 @@ class _Task:
     fn: Callable[..., Any]
     args: tuple[Any, ...]
     attempts: int = 0
+    scenario: bool = True  # a scenario (retried, a death counted), not a worker's warm-up
 
 
 @dataclass
@@ -176,17 +178,44 @@ class ProcessTasks:
             if self._closing:
                 raise RuntimeError("the worker pool is closed")
             self._queue.append(_Task(fut, fn, args))
-            if self._thread is None:
-                self._thread = threading.Thread(target=self._dispatch, name="regen-tasks", daemon=True)
-                self._thread.start()
-            self._lock.notify_all()
+            self._dispatching()
         return fut
 
+    def _dispatching(self) -> None:
+        """The dispatcher thread started (once) and woken (under the lock)."""
+        if self._thread is None:
+            self._thread = threading.Thread(target=self._dispatch, name="regen-tasks", daemon=True)
+            self._thread.start()
+        self._lock.notify_all()
+
     def warm(self, fn: Callable[..., Any], *args: Any) -> list[Future]:
-        """``fn(*args)`` once per worker, ahead of the scenarios (each idle worker takes one):
-        the once-per-process work of a first scenario, done while the caller still expands;
-        only where the workers leave this machine a core (:func:`_warm_each`)."""
-        return _warm_each(self, self.workers < (os.cpu_count() or 1), fn, args)
+        """``fn(*args)`` once on each idle worker, ahead of the scenarios: the once-per-process
+        work of a first scenario, done while the caller still expands; only where the workers
+        leave this machine a core (:func:`_warm_each`)."""
+        return _warm_each(self, self.workers < (os.cpu_count() or 1), fn, args,
+                          each=lambda: self._send_to_each(fn, args))
+
+    def _send_to_each(self, fn: Callable[..., Any], args: tuple[Any, ...]) -> list[Future]:
+        """``fn(*args)`` sent straight to each idle worker, not queued: from the queue, a worker
+        done with its first one could take the second too (seen under load: one worker warmed
+        twice, the other not at all). Not run again if its worker dies (nothing is lost)."""
+        futures = []
+        with self._lock:
+            if self._closing:
+                return []
+            for w in self._pool:
+                if w.task is not None or not w.process.is_alive():
+                    continue
+                task = _Task(Future(), fn, args, attempts=ATTEMPTS, scenario=False)
+                task.future.set_running_or_notify_cancel()
+                try:
+                    w.conn.send((fn, args))
+                except (BrokenPipeError, ConnectionResetError):  # it died just now: the next assignment sees it
+                    continue
+                w.task = task
+                futures.append(task.future)
+            self._dispatching()
+        return futures
 
     def _start_worker(self, *, later: bool = False) -> _Worker:
         """A worker process. ``later`` (in place of one that died, while this process's other
@@ -300,6 +329,9 @@ class ProcessTasks:
         self._pool.remove(w)
         task, w.task = w.task, None
         if task is None:
+            return
+        if not task.scenario:
+            task.future.set_exception(WorkerDied(f"the worker died while warming (exit code {code})"))
             return
         self.deaths += 1
         why = f"the worker process running it died (exit code {code})"
