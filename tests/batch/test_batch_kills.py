@@ -76,8 +76,14 @@ def test_kill_9_of_a_worker_retries_its_scenario_and_of_the_batch_loses_nothing(
     pytest.importorskip("scenic")
     proc = _start(tmp_path)
     _wait(tmp_path, proc, lambda evs: any(e.get("stage") == "simulate" for e in evs))
-    time.sleep(1.0)
-    workers = subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True).stdout.split()
+    # the workers are forked by the pool's zygote, the batch's child (regen.pipeline.zygote), once
+    # it has loaded the simulators
+    t0, workers = time.monotonic(), []
+    while not workers and time.monotonic() - t0 < 60:
+        time.sleep(1.0)
+        zygotes = subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True).stdout.split()
+        workers = [w for z in zygotes
+                   for w in subprocess.run(["pgrep", "-P", z], capture_output=True, text=True).stdout.split()]
     assert workers, "no simulation worker was started"
     os.kill(int(workers[0]), signal.SIGKILL)  # a simulator's crash, the OOM killer
     _wait(tmp_path, proc, lambda evs: sum(e.get("event") == "scenario_done" for e in evs) >= 1)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -53,9 +54,9 @@ def always_die(counter: str) -> None:
     os._exit(137)
 
 
-@pytest.fixture
-def tasks():
-    t = ProcessTasks(2)
+@pytest.fixture(params=[True, False], ids=["zygote", "no-zygote"])
+def tasks(request):
+    t = ProcessTasks(2, zygote=request.param)
     yield t
     t.close(cancel=True)
 
@@ -103,14 +104,16 @@ def test_close_with_cancel_cancels_what_has_not_started(tmp_path) -> None:
         t.submit(square, 1)
 
 
-def test_a_worker_killed_between_scenarios_is_replaced_and_nothing_is_lost() -> None:
+@pytest.mark.parametrize("zygote", [True, False])
+def test_a_worker_killed_between_scenarios_is_replaced_and_nothing_is_lost(zygote) -> None:
     """kill -9 of an idle worker (seen in a batch: the pool then sent it the next scenario, the
     dispatcher died of the broken pipe and the batch waited forever): a new worker takes its
     place, every scenario runs once, and no death is counted (no scenario was running)."""
     import signal
 
-    t = ProcessTasks(2)
+    t = ProcessTasks(2, zygote=zygote)
     try:
+        assert [f.result(timeout=60) for f in [t.submit(slow_pid, 0.3) for _ in range(4)]]  # both workers up
         assert [f.result(timeout=60) for f in [t.submit(square, i) for i in range(4)]] == [0, 1, 4, 9]
         victim = t._pool[0].process  # idle now: every task above has finished
         os.kill(victim.pid, signal.SIGKILL)
@@ -129,6 +132,7 @@ def test_a_worker_whose_pipe_breaks_as_it_gets_a_scenario_is_replaced(monkeypatc
     worker, not counted as an attempt."""
     t = ProcessTasks(1)
     try:
+        assert t.submit(square, 2).result(timeout=60) == 4
         first = t._pool[0]
 
         def broken(_obj) -> None:
@@ -160,7 +164,16 @@ def test_a_dispatcher_failure_fails_the_scenarios_instead_of_hanging(monkeypatch
         t.close(cancel=True)
 
 
-def test_warming_runs_once_on_each_worker_and_a_failure_stays_quiet(tasks, monkeypatch) -> None:
+@pytest.fixture
+def forked():
+    """A pool without a zygote: its workers forked from this process at once (and warmed each)."""
+    t = ProcessTasks(2, zygote=False)
+    yield t
+    t.close(cancel=True)
+
+
+def test_warming_runs_once_on_each_worker_and_a_failure_stays_quiet(forked, monkeypatch) -> None:
+    tasks = forked
     monkeypatch.setattr(os, "cpu_count", lambda: 8)  # the two workers leave the caller cores
     workers = {w.process.pid for w in tasks._pool}
     pids = [f.result(timeout=30) for f in tasks.warm(slow_pid, 0.5)]
@@ -170,10 +183,11 @@ def test_warming_runs_once_on_each_worker_and_a_failure_stays_quiet(tasks, monke
     assert tasks.submit(square, 7).result(timeout=30) == 49  # the workers go on
 
 
-def test_an_instant_warm_up_still_reaches_each_worker(tasks, monkeypatch) -> None:
+def test_an_instant_warm_up_still_reaches_each_worker(forked, monkeypatch) -> None:
     """A warm-up that ends at once (a worker already warm) must not let the first worker take
     the second worker's too (seen in a batch on a loaded machine: one worker warmed twice, the
     other cold): the pool is slow to hand out work here, and each worker still gets one."""
+    tasks = forked
     import time
 
     monkeypatch.setattr(os, "cpu_count", lambda: 8)
@@ -191,7 +205,8 @@ def test_an_instant_warm_up_still_reaches_each_worker(tasks, monkeypatch) -> Non
     assert tasks.submit(square, 4).result(timeout=30) == 16 and tasks.deaths == 0
 
 
-def test_a_worker_killed_while_warming_counts_no_death_and_is_replaced(tasks, monkeypatch) -> None:
+def test_a_worker_killed_while_warming_counts_no_death_and_is_replaced(forked, monkeypatch) -> None:
+    tasks = forked
     import signal
 
     monkeypatch.setattr(os, "cpu_count", lambda: 8)
@@ -205,10 +220,64 @@ def test_a_worker_killed_while_warming_counts_no_death_and_is_replaced(tasks, mo
     assert victim.pid not in pids and len(tasks._pool) == 2
 
 
-def test_workers_that_take_every_core_are_not_warmed(tasks, monkeypatch) -> None:
+def test_workers_that_take_every_core_are_not_warmed(forked, monkeypatch) -> None:
+    tasks = forked
     monkeypatch.setattr(os, "cpu_count", lambda: 2)  # the two workers and the caller share them
     assert tasks.warm(slow_pid, 0.5) == []
     assert tasks.submit(square, 3).result(timeout=30) == 9
+
+
+def load_once() -> int:
+    """A warm-up: what a simulator's first load leaves in its process (here, an environment mark)."""
+    os.environ["REGEN_TEST_WARMED_IN"] = str(os.getpid())
+    return os.getpid()
+
+
+def warmed_in() -> tuple[int, str | None]:
+    return os.getpid(), os.environ.get("REGEN_TEST_WARMED_IN")
+
+
+def test_the_zygote_warms_once_and_every_worker_is_forked_with_it() -> None:
+    """The simulators load once, in the zygote, while the caller goes on; the workers, forked
+    afterwards from it (a replacement too), start with them loaded; the caller is untouched."""
+    import signal
+
+    t = ProcessTasks(2)
+    try:
+        (fut,) = t.warm(load_once)
+        zygote = fut.result(timeout=30)
+        assert zygote not in (os.getpid(), None) and "REGEN_TEST_WARMED_IN" not in os.environ
+        first = [f.result(timeout=60) for f in [t.submit(slow_pid, 0.3) for _ in range(2)]]
+        seen = [f.result(timeout=60) for f in [t.submit(warmed_in) for _ in range(4)]]
+        assert {pid for pid, _ in seen} <= set(first) and {w for _, w in seen} == {str(zygote)}
+        os.kill(first[0], signal.SIGKILL)
+        t._pool[0].process.join(timeout=10)
+        again = [f.result(timeout=60) for f in [t.submit(warmed_in) for _ in range(4)]]
+        assert first[0] not in {pid for pid, _ in again} and {w for _, w in again} == {str(zygote)}
+        failed = t.warm(boom, "no simulator here")
+        assert isinstance(failed[0].exception(timeout=30), ValueError)  # only logged by the batch
+        assert t.submit(square, 5).result(timeout=30) == 25
+    finally:
+        t.close(cancel=True)
+
+
+def test_a_killed_zygote_leaves_a_pool_that_spawns_its_workers() -> None:
+    """kill -9 of the zygote takes its workers with it (they die with their parent): their
+    scenarios run again on spawned workers, and the pool goes on."""
+    import signal
+
+    t = ProcessTasks(2)
+    try:
+        assert t.submit(square, 3).result(timeout=60) == 9
+        zygote = t._zygote.process
+        running = [t.submit(slow_pid, 1.0) for _ in range(2)]
+        time.sleep(0.3)
+        os.kill(zygote.pid, signal.SIGKILL)
+        pids = {f.result(timeout=120) for f in running + [t.submit(slow_pid, 0.1) for _ in range(3)]}
+        assert os.getpid() not in pids and t._zygote is None
+        assert [f.result(timeout=60) for f in [t.submit(square, i) for i in range(3)]] == [0, 1, 4]
+    finally:
+        t.close(cancel=True)
 
 
 def import_slow_module(name: str) -> str:

@@ -213,9 +213,10 @@ class BatchJob:
         return self.record
 
     def warm_workers(self) -> None:
-        """Each worker loads the simulators of the behaviors still to run while their causes are
-        expanded (:func:`~regen.pipeline.stages.warm_stage`): a fresh worker's first scenario
-        took 1.3 s more than the next ones (driving, measured)."""
+        """The simulators of the behaviors still to run loaded ahead of their scenarios, while
+        their causes are expanded (:func:`~regen.pipeline.stages.warm_stage`): once, in the
+        pool's zygote, which forks the workers with them loaded; on Ray, by each worker. A fresh
+        worker's first scenario took 1.7 s more than the next ones (driving, measured)."""
         names = sorted({p.behavior.domain for i, p in enumerate(self.planned)
                         if self.record.behaviors[i].status != "done"})
         if names:

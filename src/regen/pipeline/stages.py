@@ -135,8 +135,9 @@ def ground_stage(backend: DomainBackend, path: CausePath, llm: LLM | None, folde
 
 
 def warm_stage(names: tuple[str, ...]) -> dict[str, float]:
-    """In a worker that has simulated nothing yet: each domain's once-per-process work
-    (:meth:`regen.contract.DomainBackend.warm`), seconds per domain."""
+    """In a process that has simulated nothing yet (a pool's zygote, a Ray worker): each
+    domain's once-per-process work (:meth:`regen.contract.DomainBackend.warm`), seconds per
+    domain."""
     return {name: domains.make(name).warm() for name in names}
 
 

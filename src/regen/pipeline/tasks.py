@@ -27,6 +27,7 @@ from multiprocessing.connection import Connection, wait
 from typing import Any, Protocol
 
 from regen.errors import ConfigError, RegenError, install_hint
+from regen.pipeline.zygote import Zygote, ZygoteGone
 
 log = logging.getLogger(__name__)
 
@@ -147,30 +148,41 @@ class _Worker:
 
 
 class ProcessTasks:
-    """``workers`` processes of this machine (started at once), each running one scenario
-    at a time. A dispatcher
+    """``workers`` processes of this machine, each running one scenario at a time. A dispatcher
     thread hands tasks to idle workers, collects results, and replaces a worker that died,
-    running its scenario once more (:data:`ATTEMPTS`)."""
+    running its scenario once more (:data:`ATTEMPTS`).
 
-    def __init__(self, workers: int):
+    Where the platform forks, the workers are forked from the pool's zygote
+    (:mod:`regen.pipeline.zygote`: forked once as the pool starts, single-threaded, the
+    simulators loaded once by :meth:`warm`), as the first scenarios arrive and in place of any
+    that die; without it (``zygote=False``, or after it died) the first workers are forked from
+    this process at once and later ones spawned."""
+
+    def __init__(self, workers: int, *, zygote: bool | None = None):
         if workers < 1:
             raise ConfigError(f"workers must be at least 1, not {workers}")
         self.workers = workers
-        # the first workers forked where the platform can (they start at once and see this
-        # process's set-up, as the process pools before them did); spawned elsewhere. A worker
-        # started later, in place of one that died, is always spawned (:meth:`_start_worker`).
-        self._ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+        forks = "fork" in mp.get_all_start_methods()
+        self._ctx = mp.get_context("fork" if forks else "spawn")
         self._later_ctx = mp.get_context("spawn")
+        self._zygote: Zygote | None = None
         self._queue: collections.deque[_Task] = collections.deque()
         self._pool: list[_Worker] = []
         self._lock = threading.Condition()
         self._closing = False
         self._thread: threading.Thread | None = None
+        # wakes the dispatcher while it waits on busy workers: a task submitted then starts at
+        # once on an idle or new worker (it waited for the next result, or up to 0.5 s)
+        self._wake_r, self._wake_w = mp.Pipe(duplex=False)
         self.deaths = 0  # workers that died while running a scenario (a figure for the summary)
         # forked now, before the caller's threads start drawing or calling models: a child forked
         # while another thread holds a lock (matplotlib's, logging's) inherits it held and hangs
         # on its first use (seen: a batch with pictures, a worker forked while the graph was drawn)
-        self._pool = [self._start_worker() for _ in range(workers)]
+        if forks and zygote is not False:
+            wait_for_imports()
+            self._zygote = Zygote(self._ctx, _worker_main)
+        else:
+            self._pool = [self._start_worker() for _ in range(workers)]
 
     def submit(self, fn: Callable[..., Any], *args: Any) -> Future:
         fut: Future = Future()
@@ -187,13 +199,29 @@ class ProcessTasks:
             self._thread = threading.Thread(target=self._dispatch, name="regen-tasks", daemon=True)
             self._thread.start()
         self._lock.notify_all()
+        self._wake_w.send_bytes(b"")
 
     def warm(self, fn: Callable[..., Any], *args: Any) -> list[Future]:
-        """``fn(*args)`` once on each idle worker, ahead of the scenarios: the once-per-process
-        work of a first scenario, done while the caller still expands; only where the workers
-        leave this machine a core (:func:`_warm_each`)."""
-        return _warm_each(self, self.workers < (os.cpu_count() or 1), fn, args,
-                          each=lambda: self._send_to_each(fn, args))
+        """``fn(*args)`` ahead of the scenarios, the once-per-process work of a first scenario,
+        done while the caller still expands: once, in the zygote, whose workers are forked with
+        it (the first of them wait for it); without a zygote, on each idle worker, only where the
+        workers leave this machine a core (:func:`_warm_each`)."""
+        zygote = self._zygote
+        if zygote is None:
+            return _warm_each(self, self.workers < (os.cpu_count() or 1), fn, args,
+                              each=lambda: self._send_to_each(fn, args))
+        fut: Future = Future()
+        fut.set_running_or_notify_cancel()
+
+        def run() -> None:
+            try:
+                fut.set_result(zygote.warm(fn, args))
+            except BaseException as exc:  # ZygoteGone too: the workers do that work themselves
+                fut.set_exception(exc)
+
+        threading.Thread(target=run, name="regen-warm", daemon=True).start()
+        fut.add_done_callback(_log_warm_failure)
+        return [fut]
 
     def _send_to_each(self, fn: Callable[..., Any], args: tuple[Any, ...]) -> list[Future]:
         """``fn(*args)`` sent straight to each idle worker, not queued: from the queue, a worker
@@ -224,6 +252,14 @@ class ProcessTasks:
         matplotlib's, a model client's) held for ever, and hangs at its first use (seen: a killed
         worker's replacement hung in an import, and the batch with it). It costs the replacement
         its imports (seconds), paid once per death."""
+        if self._zygote is not None:
+            try:
+                handle, conn = self._zygote.fork()
+                return _Worker(handle, conn)
+            except ZygoteGone as exc:
+                log.warning("%s; spawning the workers from now on", exc)
+                self._zygote = None
+            later = True
         ctx = self._later_ctx if later else self._ctx
         parent, child = ctx.Pipe()
         p = ctx.Process(target=_worker_main, args=(child, os.getpid()), daemon=True, name="regen-worker")
@@ -300,12 +336,16 @@ class ProcessTasks:
                         return
                     self._lock.wait(0.5)
                     continue
-            ready = wait([w.conn for w in busy] + [w.process.sentinel for w in busy], timeout=0.5)
+            # a forked worker's death shows on its pipe (it has no sentinel here)
+            sentinels = [w.process.sentinel for w in busy if w.process.sentinel is not None]
+            ready = wait([w.conn for w in busy] + sentinels + [self._wake_r], timeout=0.5)
             with self._lock:
+                while self._wake_r.poll():
+                    self._wake_r.recv_bytes()
                 for w in busy:
                     if w.conn in ready and w.conn.poll():
                         self._finish(w)
-                    elif w.process.sentinel in ready:
+                    elif w.process.sentinel is not None and w.process.sentinel in ready:
                         self._died(w)
 
     def _finish(self, w: _Worker) -> None:
@@ -350,6 +390,8 @@ class ProcessTasks:
                 while self._queue:
                     self._queue.popleft().future.cancel()
             self._lock.notify_all()
+            if not self._wake_w.closed:  # closed by an earlier close()
+                self._wake_w.send_bytes(b"")
         if self._thread is not None:
             self._thread.join()
         for w in self._pool:
@@ -361,6 +403,11 @@ class ProcessTasks:
             if w.process.is_alive():
                 w.process.kill()
         self._pool.clear()
+        if self._zygote is not None:
+            self._zygote.close()
+            self._zygote = None
+        self._wake_r.close()
+        self._wake_w.close()
 
 
 def _ray() -> Any:
