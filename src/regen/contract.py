@@ -472,8 +472,10 @@ class DomainBackend(ABC):
 
     def warm(self) -> float:
         """Do the once-per-process work of a first simulation (imports, the simulator's world
-        model) ahead of it, in a worker that has simulated nothing yet; the seconds it took. A batch
-        has its workers do it while its first behaviors are still expanded. Default: nothing."""
+        model) ahead of it, in a process that has simulated nothing yet; the seconds it took. A
+        batch does it while its first behaviors are still expanded: in the pool's zygote, which
+        then forks the workers (so it must leave no thread running and no simulator connection
+        open: the workers would share them), or in each Ray worker. Default: nothing."""
         return 0.0
 
     def config(self, scenario: Scenario) -> dict:
