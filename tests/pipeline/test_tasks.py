@@ -345,3 +345,24 @@ def test_a_worker_started_in_place_of_a_dead_one_inherits_no_lock_another_thread
         release.set()
         holder.join(timeout=10)
         t.close(cancel=True)
+
+
+def start_a_thread() -> int:
+    import threading
+
+    threading.Thread(target=time.sleep, args=(30,), daemon=True).start()
+    return threading.active_count()
+
+
+def test_a_warm_up_that_leaves_a_thread_makes_the_pool_spawn_instead_of_forking(caplog) -> None:
+    """A domain's warm-up that starts a thread (against its contract) would make every fork from
+    the zygote unsafe: the zygote refuses to fork, and the pool spawns its workers."""
+    t = ProcessTasks(1)
+    try:
+        (fut,) = t.warm(start_a_thread)
+        assert fut.result(timeout=30) == 2
+        with caplog.at_level("WARNING", logger="regen.pipeline.tasks"):
+            assert t.submit(square, 6).result(timeout=120) == 36
+        assert t._zygote is None and "left 1 thread(s) running" in caplog.text
+    finally:
+        t.close(cancel=True)

@@ -97,6 +97,9 @@ def zygote_main(conn: Connection, driver: int, worker_main: Callable[[Connection
         if msg is None:
             return
         if msg[0] == "fork":
+            if threading.active_count() > 1:  # a warm-up left a thread: a fork could inherit its locks
+                conn.send(f"a warm-up left {threading.active_count() - 1} thread(s) running in the zygote")
+                return
             _fork_worker(conn, driver, worker_main)
         elif msg[0] == "warm":
             _reply(conn, msg[1], msg[2])
@@ -134,7 +137,10 @@ class Zygote:
     def fork(self) -> tuple[Forked, Connection]:
         """A new worker: its handle and the driver's end of its pipe."""
         def answer() -> tuple[int, int]:
-            return self._conn.recv(), reduction.recv_handle(self._conn)
+            pid = self._conn.recv()
+            if isinstance(pid, str):  # it will not fork (and has left)
+                raise ZygoteGone(f"the pool's zygote stopped: {pid}")
+            return pid, reduction.recv_handle(self._conn)
 
         pid, fd = self._ask(("fork",), answer)
         return Forked(pid, self), Connection(fd)
