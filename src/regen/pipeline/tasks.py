@@ -328,6 +328,8 @@ class ProcessTasks:
 
     def _dispatch_loop(self) -> None:
         while True:
+            while self._wake_r.poll():  # every wake-up so far: this pass looks at the queue anyway
+                self._wake_r.recv_bytes()
             with self._lock:
                 self._assign()
                 busy = [w for w in self._pool if w.task is not None]
@@ -340,8 +342,6 @@ class ProcessTasks:
             sentinels = [w.process.sentinel for w in busy if w.process.sentinel is not None]
             ready = wait([w.conn for w in busy] + sentinels + [self._wake_r], timeout=0.5)
             with self._lock:
-                while self._wake_r.poll():
-                    self._wake_r.recv_bytes()
                 for w in busy:
                     if w.conn in ready and w.conn.poll():
                         self._finish(w)
