@@ -72,20 +72,40 @@ def _finish(tmp_path: Path) -> subprocess.CompletedProcess:
     return subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
 
 
+def _cpu_ticks(pid: int) -> int | None:
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except (OSError, IndexError):
+        return None
+    return int(fields[11]) + int(fields[12])  # utime + stime
+
+
+def _busy_worker(proc: subprocess.Popen, timeout: float = 120.0) -> int | None:
+    """A simulation worker while it runs a scenario (it uses the CPU; an idle one waits on its
+    pipe). The workers are forked by the pool's zygote, the batch's child (regen.pipeline.zygote),
+    once it has loaded the simulators; a warm worker's scenario takes a fraction of a second, so
+    they are sampled every 50 ms."""
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout and proc.poll() is None:
+        zygotes = subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True).stdout.split()
+        workers = [int(w) for z in zygotes
+                   for w in subprocess.run(["pgrep", "-P", z], capture_output=True, text=True).stdout.split()]
+        before = {w: _cpu_ticks(w) for w in workers}
+        time.sleep(0.05)
+        for w in workers:
+            after = _cpu_ticks(w)
+            if before[w] is not None and after is not None and after - before[w] >= 1:
+                return w
+    return None
+
+
 def test_kill_9_of_a_worker_retries_its_scenario_and_of_the_batch_loses_nothing(tmp_path) -> None:
     pytest.importorskip("scenic")
     proc = _start(tmp_path)
     _wait(tmp_path, proc, lambda evs: any(e.get("stage") == "simulate" for e in evs))
-    # the workers are forked by the pool's zygote, the batch's child (regen.pipeline.zygote), once
-    # it has loaded the simulators
-    t0, workers = time.monotonic(), []
-    while not workers and time.monotonic() - t0 < 60:
-        time.sleep(1.0)
-        zygotes = subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True).stdout.split()
-        workers = [w for z in zygotes
-                   for w in subprocess.run(["pgrep", "-P", z], capture_output=True, text=True).stdout.split()]
-    assert workers, "no simulation worker was started"
-    os.kill(int(workers[0]), signal.SIGKILL)  # a simulator's crash, the OOM killer
+    busy = _busy_worker(proc)
+    assert busy, "no simulation worker was seen running a scenario"
+    os.kill(busy, signal.SIGKILL)  # a simulator's crash, the OOM killer
     _wait(tmp_path, proc, lambda evs: sum(e.get("event") == "scenario_done" for e in evs) >= 1)
     proc.kill()  # then the whole batch
     _, err = proc.communicate(timeout=30)
