@@ -27,7 +27,7 @@ from multiprocessing.connection import Connection, wait
 from typing import Any, Protocol
 
 from regen.errors import ConfigError, RegenError, install_hint
-from regen.pipeline.zygote import Zygote, ZygoteGone
+from regen.pipeline.zygote import Zygote, ZygoteGone, reply, stop
 
 log = logging.getLogger(__name__)
 
@@ -84,14 +84,7 @@ def _worker_main(conn: Connection, parent: int) -> None:
             return
         if job is None:
             return
-        fn, args = job
-        try:
-            conn.send(("ok", fn(*args)))
-        except Exception as exc:  # the task's own failure: the caller's future gets it
-            try:
-                conn.send(("error", exc))
-            except Exception:  # an exception that does not pickle: its text
-                conn.send(("error", RuntimeError(f"{type(exc).__name__}: {exc}")))
+        reply(conn, *job)
 
 
 IMPORT_WAIT = 60.0  # [s] a worker is forked after at most this long waiting for other threads' imports
@@ -119,9 +112,9 @@ def wait_for_imports(limit: float = IMPORT_WAIT) -> None:
     importing a module. A child forked while one was inherits that module's import lock, held
     by a thread it does not have, and waits for ever at its first import of it (seen: a killed
     worker's forked replacement hung in ``import_module`` and the batch with it; replacements
-    are spawned now); re-importing the half-run module in the child instead would run its
-    registrations twice. Python holds its global import lock across the fork itself, so an
-    import that starts now waits until the fork is done."""
+    come from the zygote or are spawned now); re-importing the half-run module in the child
+    instead would run its registrations twice. Python holds its global import lock across the
+    fork itself, so an import that starts now waits until the fork is done."""
     deadline = time.monotonic() + limit
     while (running := imports_running()) and time.monotonic() < deadline:
         time.sleep(0.005)
@@ -246,12 +239,12 @@ class ProcessTasks:
         return futures
 
     def _start_worker(self, *, later: bool = False) -> _Worker:
-        """A worker process. ``later`` (in place of one that died, while this process's other
-        threads run: drawing, calling models, importing): a fresh interpreter, not a fork. A
-        child forked then inherits every lock another thread holds at that instant (an import's,
-        matplotlib's, a model client's) held for ever, and hangs at its first use (seen: a killed
-        worker's replacement hung in an import, and the batch with it). It costs the replacement
-        its imports (seconds), paid once per death."""
+        """A worker process: forked by the zygote while there is one. Without it, ``later`` (in
+        place of one that died, while this process's other threads run: drawing, calling models,
+        importing) is a fresh interpreter, not a fork of this process: a child forked then
+        inherits every lock another thread holds at that instant (an import's, matplotlib's, a
+        model client's) held for ever, and hangs at its first use (seen: a killed worker's
+        replacement hung in an import, and the batch with it)."""
         if self._zygote is not None:
             try:
                 handle, conn = self._zygote.fork()
@@ -395,13 +388,7 @@ class ProcessTasks:
         if self._thread is not None:
             self._thread.join()
         for w in self._pool:
-            try:
-                w.conn.send(None)
-            except OSError:
-                pass
-            w.process.join(timeout=5)
-            if w.process.is_alive():
-                w.process.kill()
+            stop(w.conn, w.process)
         self._pool.clear()
         if self._zygote is not None:
             self._zygote.close()

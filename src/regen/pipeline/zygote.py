@@ -69,7 +69,9 @@ def _fork_worker(conn: Connection, driver: int, worker_main: Callable[[Connectio
         ours.close()
 
 
-def _reply(conn: Connection, fn: Callable[..., Any], args: tuple[Any, ...]) -> None:
+def reply(conn: Connection, fn: Callable[..., Any], args: tuple[Any, ...]) -> None:
+    """``fn(*args)`` run here and its outcome sent back: ``("ok", value)`` or ``("error", exc)``
+    (a worker's task, the zygote's warm-up); the caller's future gets a task's own failure."""
     try:
         conn.send(("ok", fn(*args)))
     except Exception as exc:
@@ -102,13 +104,26 @@ def zygote_main(conn: Connection, driver: int, worker_main: Callable[[Connection
                 return
             _fork_worker(conn, driver, worker_main)
         elif msg[0] == "warm":
-            _reply(conn, msg[1], msg[2])
+            reply(conn, msg[1], msg[2])
         elif msg[0] == "exit code":
             deadline = time.monotonic() + EXIT_CODE_WAIT
             while msg[1] not in codes and time.monotonic() < deadline:
                 _reap(codes)
                 time.sleep(0.005)
             conn.send(codes.pop(msg[1], None))
+
+
+def stop(conn: Connection, process: Any, timeout: float = 5.0) -> None:
+    """Ask a process that reads ``conn`` (a worker, the zygote) to leave; kill it if it has not
+    within ``timeout`` seconds."""
+    try:
+        conn.send(None)
+    except OSError:
+        pass
+    process.join(timeout=timeout)
+    if process.is_alive():
+        process.kill()
+        process.join(timeout=timeout)
 
 
 class ZygoteGone(Exception):
@@ -160,14 +175,7 @@ class Zygote:
 
     def close(self) -> None:
         with self._lock:
-            try:
-                self._conn.send(None)
-            except OSError:
-                pass
-        self.process.join(timeout=5)
-        if self.process.is_alive():
-            self.process.kill()
-            self.process.join(timeout=5)
+            stop(self._conn, self.process)
         self._conn.close()
 
 
@@ -213,4 +221,4 @@ class Forked:
             pass
 
 
-__all__ = ["Forked", "Zygote", "ZygoteGone", "zygote_main"]
+__all__ = ["Forked", "Zygote", "ZygoteGone", "reply", "stop", "zygote_main"]
