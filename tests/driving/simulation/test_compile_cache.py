@@ -39,11 +39,12 @@ def test_the_world_model_is_translated_once_and_the_block_restores_scenic() -> N
     original = translator.compileStream
     text = scenic_program(_scenario())
     compile_program(text)
-    misses = compile_cache.stats["misses"]
-    assert misses >= 2  # the program and the world model's modules
+    misses, disk = compile_cache.stats["misses"], compile_cache.stats["disk"]
+    assert misses >= 1 and misses + disk >= 2  # the program, and the world model's modules (maybe from disk)
     compile_program(text + "\n# another program text\n")
     assert compile_cache.stats["misses"] == misses + 1  # only the program itself
-    assert compile_cache.stats["hits"] >= misses - 1
+    assert compile_cache.stats["disk"] == disk  # the modules from the process's cache now
+    assert compile_cache.stats["hits"] >= misses + disk - 1
     assert translator.compileStream is original
     with compile_cache.cached_compilation(), compile_cache.cached_compilation():  # nested: one patch
         assert translator.compileStream is not original

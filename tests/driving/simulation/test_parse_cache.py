@@ -182,13 +182,19 @@ def _without_cache(monkeypatch) -> None:
 @pytest.mark.slow
 @pytest.mark.parametrize("key,i", CHAINS)
 def test_a_scenario_simulated_through_the_cache_records_the_same_trace(key, i, monkeypatch) -> None:
-    """Trace by trace, every recorded number: without the cache, with it cold, with it warm."""
+    """Trace by trace, every recorded number: without the cache, with it cold, from cached parses,
+    from a cached translation."""
     fresh = chain_simulator(key, i)  # compiled again, not the compiled program kept from the run before
     with monkeypatch.context() as m:
         _without_cache(m)
         plain = fresh()
-    runs = [fresh() for _ in range(2)]
-    assert parse_cache.stats["hits"] > 0 and compile_cache.stats["hits"] > 0
+    runs = [fresh()]  # cold: every statement parsed
+    assert parse_cache.stats["misses"] > 0 and parse_cache.stats["hits"] == 0
+    compile_cache.clear()  # the program translated again, from the statements parsed before
+    runs.append(fresh())
+    assert parse_cache.stats["hits"] > 0
+    runs.append(fresh())  # warm: the translation itself from the process's cache
+    assert compile_cache.stats["hits"] > 0
     for run in runs:
         for column in ("times", "x", "y", "heading", "speed"):
             assert getattr(run, column) == getattr(plain, column), column

@@ -21,7 +21,8 @@ runs as it does without it (tests/driving/simulation/test_compile_cache.py).
 
 Scenic's compiler keeps its state in module globals (the veneer), so two compilations must never
 overlap: the parse cache's lock (:data:`regen.driving.simulation.parse_cache.LOCK`) is held for
-the whole block, and the swapped-in names are restored on the way out. The cache is bounded (:data:`MAX_CHARS` of source text, least recently used first out).
+the whole block, and the swapped-in names are restored on the way out. An imported module's translation is also
+kept on disk for the next process (:mod:`regen.driving.simulation.scenic_disk`). The cache is bounded (:data:`MAX_CHARS` of source text, least recently used first out).
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ from collections import OrderedDict
 from collections.abc import Iterator
 from dataclasses import dataclass
 
-from regen.driving.simulation import parse_cache
+from regen.driving.simulation import parse_cache, scenic_disk
 from regen.driving.simulation.parse_cache import LOCK
 
 MAX_CHARS = 2_000_000  # module source the cache holds at most [characters]
@@ -48,7 +49,7 @@ class _Translated:
 
 _cache: OrderedDict[tuple[str, bool, str], _Translated] = OrderedDict()  # (file, unparsed, source)
 _cached_chars = 0
-stats = {"hits": 0, "misses": 0}  # modules served, for tests and benchmarks
+stats = {"hits": 0, "misses": 0, "disk": 0}  # modules served (disk: read from scenic_disk)
 
 
 def _translate(source: str, filename: str, translator, *, unparse: bool) -> tuple[_Translated, list]:
@@ -71,8 +72,15 @@ def _lookup(source: str, filename: str, translator, *, unparse: bool) -> tuple[_
         _cache.move_to_end(key)
         stats["hits"] += 1
         return hit, []
-    stats["misses"] += 1
-    done, requirements = _translate(source, filename, translator, unparse=unparse)
+    kept = scenic_disk.read_translation(filename, source) if unparse else None  # modules only
+    if kept is not None:
+        stats["disk"] += 1
+        done, requirements = _Translated(*kept), []
+    else:
+        stats["misses"] += 1
+        done, requirements = _translate(source, filename, translator, unparse=unparse)
+        if unparse and not requirements and done.python_source is not None:
+            scenic_disk.write_translation(filename, source, done.code, done.ast_hash, done.python_source)
     if not requirements:  # requirements keep their syntax trees: not shared between scenarios
         _cache[key] = done
         _cached_chars += len(source)

@@ -241,7 +241,12 @@ def _read_names(body: list[ast.stmt]) -> frozenset[tuple[int, int]]:
                      and n.end_lineno == n.lineno and n.end_col_offset == n.col_offset + len(PLACEHOLDER))
 
 
+_used: set[tuple[str, str]] | None = None  # the keys a :func:`recording` block looked up
+
+
 def _lookup(key: tuple[str, str]) -> _Parsed | None:
+    if _used is not None:
+        _used.add(key)
     parsed = _cache.get(key)
     if parsed is not None:
         _cache.move_to_end(key)
@@ -446,6 +451,37 @@ def _swapped(translator, original) -> Iterator[None]:
         translator.parse_string = original
 
 
+@contextlib.contextmanager
+def recording() -> Iterator[list[tuple[tuple[str, str], _Parsed]]]:
+    """Yields a list that, as the block ends, holds the cache entries its parses used (for
+    :mod:`regen.driving.simulation.scenic_disk` to keep). The parses must run in this thread."""
+    global _used
+    got: list[tuple[tuple[str, str], _Parsed]] = []
+    with LOCK:
+        outer, _used = _used, set()
+        try:
+            yield got
+        finally:
+            used, _used = _used, outer
+            got.extend((k, _cache[k]) for k in used if k in _cache)
+
+
+def are_entries(entries: object) -> bool:
+    """Whether ``entries`` is a list of cache entries as :func:`recording` gives them."""
+    return isinstance(entries, list) and all(
+        isinstance(e, tuple) and len(e) == 2 and isinstance(e[0], tuple) and len(e[0]) == 2
+        and all(isinstance(k, str) for k in e[0]) and isinstance(e[1], _Parsed)
+        and isinstance(e[1].body, list) for e in entries)
+
+
+def preload(entries: list[tuple[tuple[str, str], _Parsed]]) -> None:
+    """Put parses kept by an earlier process into the cache (those it already holds stay)."""
+    with LOCK:
+        for key, parsed in entries:
+            if key not in _cache:
+                _store(key, parsed)
+
+
 def clear() -> None:
     """Empty the cache (tests)."""
     global _cached_chars
@@ -457,4 +493,5 @@ def clear() -> None:
             stats[k] = 0
 
 
-__all__ = ["LOCK", "MAX_CHARS", "cached_parsing", "clear", "parse_module", "split", "stats"]
+__all__ = ["LOCK", "MAX_CHARS", "are_entries", "cached_parsing", "clear", "parse_module", "preload", "recording", "split",
+           "stats"]
