@@ -106,3 +106,17 @@ def test_a_folder_that_cannot_be_written_only_costs_time(_own_folder, monkeypatc
     text = _program()
     warm()  # cache_dir cannot make the folder: nothing kept, nothing failed
     assert _objects(compile_program(text)) == _plain(text, monkeypatch)
+
+
+def test_a_process_that_does_not_warm_up_reads_the_kept_parses_at_its_first_compilation(monkeypatch) -> None:
+    text = _program()
+    warm()
+    with monkeypatch.context() as m:  # a process with the modules kept on disk and no parses
+        _new_process()
+        m.setattr(scenic_disk, "read_parses", lambda: None)
+        compile_program(text)
+        cold = parse_cache.stats["misses"]
+    _new_process()  # e.g. `regen generate`: its first scenario, no warm-up
+    compiled = _objects(compile_program(text))
+    assert 0 < parse_cache.stats["misses"] < cold / 2  # the actors' statements; the helpers were kept
+    assert compiled == _plain(text, monkeypatch)

@@ -49,6 +49,7 @@ class _Translated:
 
 _cache: OrderedDict[tuple[str, bool, str], _Translated] = OrderedDict()  # (file, unparsed, source)
 _cached_chars = 0
+_preloaded = False  # whether this process has loaded the parses kept on disk
 stats = {"hits": 0, "misses": 0, "disk": 0}  # modules served (disk: read from scenic_disk)
 
 
@@ -123,14 +124,19 @@ def _original(translator):
 def cached_compilation() -> Iterator[None]:
     """Within this block (one thread's at a time: :data:`~regen.driving.simulation.parse_cache.LOCK`), Scenic translates
     modules through the cache and parses through the statement cache
-    (:func:`regen.driving.simulation.parse_cache.cached_parsing`). Nested blocks share the outer
+    (:func:`regen.driving.simulation.parse_cache.cached_parsing`), which the process's first
+    block fills with the parses kept on disk (:func:`~regen.driving.simulation.scenic_disk.read_parses`). Nested blocks share the outer
     one's patch; Scenic's names are restored as the outermost block ends."""
     from scenic.syntax import translator
 
+    global _preloaded
     with LOCK:
         if getattr(translator.compileStream, "_regen_original", None) is not None:
             yield
             return
+        if not _preloaded:  # the parses an earlier process kept (the warm-up program's statements)
+            _preloaded = True
+            parse_cache.preload(scenic_disk.read_parses() or [])
         original = translator.compileStream
 
         def swapped(stream, namespace, compileOptions, filename):  # noqa: N803
@@ -147,10 +153,11 @@ def cached_compilation() -> Iterator[None]:
 
 def clear() -> None:
     """Empty the cache (tests)."""
-    global _cached_chars
+    global _cached_chars, _preloaded
     with LOCK:
         _cache.clear()
         _cached_chars = 0
+        _preloaded = False
         for k in stats:
             stats[k] = 0
 

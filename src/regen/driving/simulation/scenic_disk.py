@@ -10,12 +10,14 @@ Both are functions of their text alone, so they are kept here once and read back
 - a module's translation (:mod:`~regen.driving.simulation.compile_cache`: its code object, the
   hash of its Python tree, its unparsed text), with :mod:`marshal` as Python writes ``.pyc``
   files; only imported modules without requirements, as the process's cache keeps them;
-- the warm-up program's parsed statements (:mod:`~regen.driving.simulation.parse_cache`), with
-  :mod:`pickle` (Scenic's syntax nodes are rebuilt field by field, since their constructors
-  want arguments).
+- the warm-up program's parsed statements (:mod:`~regen.driving.simulation.parse_cache`: the
+  helpers and behaviors every program opens with), with :mod:`pickle` (Scenic's syntax nodes
+  are rebuilt field by field, since their constructors want arguments); a process loads them
+  before its first compilation (:func:`regen.driving.simulation.compile_cache.cached_compilation`),
+  whether it warmed up or not.
 
-A file is found by the SHA-256 of everything it depends on: the text (and a module's file
-name), the Scenic version and Python's bytecode version; an upgraded Scenic or Python never
+A file is found by the SHA-256 of everything it depends on: a module's text and file name,
+the Scenic version and Python's bytecode version; an upgraded Scenic or Python never
 reads an old file. What is read is checked (its header, its types) and anything unreadable is
 made afresh, so the cache can only save time, never change what runs. The files live in the
 cache folder (``scenic-compiled/``, :func:`regen.paths.cache_dir`) beside the model files, at
@@ -138,12 +140,11 @@ class _Pickler(pickle.Pickler):
         return NotImplemented
 
 
-def read_parses(source: str) -> list[Any] | None:
-    """The parse-cache entries kept for the program ``source`` (see
-    :func:`regen.driving.simulation.parse_cache.recording`); None if none can be read."""
+def read_parses() -> list[Any] | None:
+    """The parse-cache entries kept by :func:`write_parses`; None if none can be read."""
     from regen.driving.simulation.parse_cache import are_entries
 
-    data = _read("parses", source)
+    data = _read("parses")
     if data is None:
         return None
     try:
@@ -154,15 +155,17 @@ def read_parses(source: str) -> list[Any] | None:
     return entries if are_entries(entries) else None
 
 
-def write_parses(source: str, entries: list[Any]) -> None:
-    """Keep the parse-cache entries the program ``source`` used for later processes."""
+def write_parses(entries: list[Any]) -> None:
+    """Keep parse-cache entries (:func:`regen.driving.simulation.parse_cache.recording`: the
+    warm-up program's) for later processes. An entry is keyed by its statement's text, so one
+    that no program has again is never used: one file serves every program."""
     buf = io.BytesIO()
     try:
         _Pickler(buf, protocol=pickle.HIGHEST_PROTOCOL).dump(entries)
     except (pickle.PicklingError, TypeError, AttributeError) as exc:
         log.debug("parses not kept on disk: %s", exc)
         return
-    _write(buf.getvalue(), "parses", source)
+    _write(buf.getvalue(), "parses")
 
 
 __all__ = ["MAX_FILES", "read_parses", "read_translation", "write_parses", "write_translation"]

@@ -31,14 +31,11 @@ def warm(map_name: str = WARM_MAP) -> None:
                     length=4.5, width=2.0, height=1.5, route=[(0.0, 0.0), (10.0, 0.0)],
                     scenic_behavior="FollowRoute")
     program = write_program([ego], map_path=str(ensure_map(map_name)), dt=0.1, max_steps=1)
-    kept = scenic_disk.read_parses(program)
-    if kept is not None:  # parsed by an earlier process: the program's translation is what is left
-        parse_cache.preload(kept)
+    parsed = parse_cache.stats["misses"]
+    with parse_cache.recording() as used:
         compile_program(program)
-    else:
-        with parse_cache.recording() as used:
-            compile_program(program)
-        scenic_disk.write_parses(program, used)
+    if parse_cache.stats["misses"] > parsed:  # not all read from disk: kept for the next process
+        scenic_disk.write_parses(used)
     try:
         from scenariogeneration import xosc  # noqa: F401 (what the OpenSCENARIO export imports)
     except ModuleNotFoundError:  # the export itself says what to install, when it runs
