@@ -172,8 +172,9 @@ def _report(mode: str, rows: list[dict]) -> None:
         print(f"  stage totals, {name} [s, wall]: " + ", ".join(f"{k} {v:.2f}" for k, v in stages.items()))
         caches = group[-1].get("caches") or {}
         if caches:  # counts so far in the process: the last round's
-            print(f"  Scenic caches after {name} (hits/misses): "
-                  + ", ".join(f"{k} {v['hits']}/{v['misses']}" for k, v in caches.items()))
+            print(f"  Scenic caches after {name} (hits/misses, and read from the kept files): "
+                  + ", ".join(f"{k} {v['hits']}/{v['misses']}" + (f", {v['disk']} from disk" if "disk" in v else "")
+                              for k, v in caches.items()))
 
 
 def main() -> None:
