@@ -221,3 +221,37 @@ def test_a_run_killed_after_grounding_keeps_its_stage_times_and_model_usage(tmp_
     after = json.loads((run / "run.json").read_text())
     assert res.manifest.status == "done" and after["usage"]["total"]["model_calls"] == len(model.kinds)
     assert after["timings"]["ground"] >= manifest["timings"]["ground"]
+
+
+@pytest.mark.parametrize("stage", ["ground", "simulate"])
+def test_a_run_killed_within_a_stage_keeps_the_time_of_the_scenarios_it_finished(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, stage: str) -> None:
+    """kill -9 after the stage finished one scenario (emulated: the next one never returns and
+    nothing runs at the end): run.json already holds that scenario's share of the stage's time
+    (seen: a batch killed after a behavior's scenarios were simulated showed 'simulate 0.00 s')."""
+    from regen.pipeline import run as run_module
+    from regen.pipeline.run import MainJob
+
+    class Killed(BaseException):
+        pass
+
+    calls = []
+    name = "ground_stage" if stage == "ground" else "simulate_stage"
+    original = getattr(run_module, name)
+
+    def once(*args, **kwargs):
+        calls.append(name)
+        if len(calls) > 1:
+            raise Killed
+        return original(*args, **kwargs)
+
+    run = tmp_path / "run"
+    with monkeypatch.context() as mp:
+        mp.setattr(run_module, name, once)
+        mp.setattr(MainJob, "close", lambda self: None)  # a killed process writes nothing more
+        with pytest.raises(Killed):
+            generate(Behavior(text=STOP, domain="driving"), run, settings=RunSettings(max_scenarios=4, causes=4),
+                     llm=_llm(_model(), run))
+    assert len(calls) == 2
+    timings = json.loads((run / "run.json").read_text())["timings"]
+    assert timings.get(stage, 0.0) > 0, timings

@@ -327,6 +327,8 @@ class MainJob:
                 continue
             self.emit("grounding", name=name)
             verdict = ground_stage(self.backend, path, self.llm, folder, seed=self.settings.seed + i)
+            self.credit()
+            self.checkpoint()  # a kill during the next grounding keeps this one's time and calls
             self.interrupts.check()
             if verdict is None:
                 pending.append(name)
@@ -426,9 +428,13 @@ class MainJob:
             self.interrupts.check()
 
     def collect(self, name: str, folder: str, res: dict[str, Any]) -> None:
-        """The outcome of one simulated scenario (:func:`simulate_stage`'s plain data)."""
+        """The outcome of one simulated scenario (:func:`simulate_stage`'s plain data); the
+        stage's time so far into run.json, so that a kill before the stage ends keeps it (seen:
+        a batch killed after a behavior's scenarios were simulated showed its simulation as 0 s)."""
         verdict = Verdict.model_validate(res["verdict"])
         self.outcomes.append(ScenarioOutcome(name, verdict, timings=res["timings"], path=Path(folder)))
+        self.credit()
+        self.checkpoint()
         self.emit("scenario_done", name=name, feasible=verdict.feasible, status=verdict.status,
                   reason=verdict.reason)
 
