@@ -21,8 +21,9 @@ runs as it does without it (tests/driving/simulation/test_compile_cache.py).
 
 Scenic's compiler keeps its state in module globals (the veneer), so two compilations must never
 overlap: the parse cache's lock (:data:`regen.driving.simulation.parse_cache.LOCK`) is held for
-the whole block, and the swapped-in names are restored on the way out. An imported module's translation is also
-kept on disk for the next process (:mod:`regen.driving.simulation.scenic_disk`). The cache is bounded (:data:`MAX_CHARS` of source text, least recently used first out).
+the whole block, and the swapped-in names are restored on the way out. The cache is bounded
+(:data:`MAX_CHARS` of source text, least recently used first out). An imported module's
+translation is also kept on disk for the next process (:mod:`regen.driving.simulation.scenic_disk`).
 """
 
 from __future__ import annotations
@@ -122,11 +123,12 @@ def _original(translator):
 
 @contextlib.contextmanager
 def cached_compilation() -> Iterator[None]:
-    """Within this block (one thread's at a time: :data:`~regen.driving.simulation.parse_cache.LOCK`), Scenic translates
-    modules through the cache and parses through the statement cache
+    """Within this block (one thread's at a time: :data:`~regen.driving.simulation.parse_cache.LOCK`),
+    Scenic translates modules through the cache and parses through the statement cache
     (:func:`regen.driving.simulation.parse_cache.cached_parsing`), which the process's first
-    block fills with the parses kept on disk (:func:`~regen.driving.simulation.scenic_disk.read_parses`). Nested blocks share the outer
-    one's patch; Scenic's names are restored as the outermost block ends."""
+    block fills with the parses kept on disk (:func:`~regen.driving.simulation.scenic_disk.read_parses`).
+    Nested blocks share the outer one's patch; Scenic's names are restored as the outermost
+    block ends."""
     from scenic.syntax import translator
 
     global _preloaded

@@ -43,7 +43,7 @@ from typing import Any
 
 log = logging.getLogger(__name__)
 
-MAGIC = b"REGENSC1"  # this file layout
+MAGIC = b"REGENSC1"  # this file layout; a new one when the kept objects change (parse_cache._Parsed)
 MAX_FILES = 64  # files kept at most (the world model is 4 modules, the warm-up one program)
 FOLDER = "scenic-compiled"
 
