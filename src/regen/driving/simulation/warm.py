@@ -6,10 +6,11 @@ Scenic (0.7 s), translating the world model's modules and parsing the program's 
 into the process's caches (:mod:`regen.driving.simulation.compile_cache`,
 :mod:`~regen.driving.simulation.parse_cache`: 0.7 s) and importing the exports' package (0.3 s).
 :func:`warm` does that work by compiling an ego-only program, so a batch can have its workers do
-it while the driver still expands its first behaviors. The translations and that program's parsed
-statements are kept on disk (:mod:`regen.driving.simulation.scenic_disk`), so a later process
-reads them instead (a cold warm-up 2.4-3.2 s, from disk about 1.4 s, mostly Scenic's imports). Nothing is simulated and nothing written
-except the generated map's file, which every scenario on that map needs anyway.
+it while the driver still expands its first behaviors. The translations and that program's
+parsed statements are kept on disk (:mod:`regen.driving.simulation.scenic_disk`), so a later
+process reads them instead (a cold warm-up 2.4-3.2 s, from disk about 1.4 s, mostly Scenic's
+imports). Nothing is simulated and nothing written except the generated map's file, which every
+scenario on that map needs anyway.
 """
 
 from __future__ import annotations
