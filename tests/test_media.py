@@ -205,3 +205,25 @@ def test_the_caption_band_is_the_same_drawn_fresh_or_remembered():
     assert np.array_equal(pictures[0], pictures[1])
     assert not np.array_equal(pictures[1], pictures[2])  # stage 2 reached by t = 3 s
     assert (pictures[0][:64] == BLUE).all()  # nothing above the band
+
+
+@pytest.mark.parametrize(("mode", "blend"), [("RGB", None), ("RGBA", None), ("RGB", "RGBA"), ("RGBA", "RGBA")])
+def test_a_stamped_tag_text_has_the_pixels_of_drawing_it(mode, blend):
+    """draw_tag_text (a name tag's text, stamped from its kept glyphs) gives the very pixels of
+    ImageDraw.text at a whole pixel, on plain and blending drawings, at the edges too."""
+    from PIL import ImageDraw
+
+    rng = np.random.default_rng(7)
+    texts = ["ego", "adult1", "traffic_light1 (distracted)", "Wq|gj ÄÖ", "", " ", "10 m"]
+    for trial in range(60):
+        back = tuple(int(v) for v in rng.integers(0, 256, size=len(mode)))
+        drawn, stamped = Image.new(mode, (120, 40), back), Image.new(mode, (120, 40), back)
+        font = media.text_font(int(rng.choice([9, 10, 11, 13])), bold=bool(trial % 3 == 0))
+        text = texts[trial % len(texts)]
+        xy = (int(rng.integers(-12, 110)), int(rng.integers(-12, 36)))
+        fill = tuple(int(v) for v in rng.integers(0, 256, size=int(rng.choice([3, 4]))))
+        ImageDraw.Draw(drawn, blend).text(xy, text, fill=fill, font=font)
+        media.draw_tag_text(ImageDraw.Draw(stamped, blend), xy, text, fill, font)
+        assert stamped.tobytes() == drawn.tobytes(), (mode, blend, text, xy, fill)
+        if text.strip() and 0 <= xy[0] < 60 and 0 <= xy[1] < 20:  # the text did land on the image
+            assert stamped.tobytes() != Image.new(mode, (120, 40), back).tobytes()

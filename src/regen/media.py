@@ -24,7 +24,7 @@ from regen.core.io import atomic_write_bytes
 from regen.errors import ConfigError
 
 __all__ = ["CAPTION_BG", "CAPTION_FG", "CAPTION_H", "HOLD_MS", "STAGE_DONE", "STAGE_FAILED", "STAGE_TODO",
-           "AnimationSettings", "StageBar", "animation_steps", "draw_caption", "draw_title", "fit_text",
+           "AnimationSettings", "StageBar", "animation_steps", "draw_caption", "draw_tag_text", "draw_title", "fit_text",
            "frame_ms", "held", "keyframe_steps", "palette_of", "spread", "steps_until", "strip", "text_font",
            "text_length", "write_gif", "write_png"]
 
@@ -299,6 +299,29 @@ def text_length(text: str, font, mode: str = "RGB") -> float:
     it on a drawing of ``mode`` (``draw.mode``); remembered, since frames measure the same tags
     and captions over and over."""
     return ImageDraw.Draw(Image.new(mode, (1, 1))).textlength(text, font=font)
+
+
+def draw_tag_text(draw: ImageDraw.ImageDraw, xy: tuple[int, int], text: str, fill, font) -> None:
+    """``draw.text(xy, text, fill=fill, font=font)`` at the whole pixel ``xy`` (left, top): the
+    same pixels, from a stamp of the glyphs kept per text and font (:func:`_text_stamp`). A name
+    tag is drawn on every frame of an animation; rasterizing its glyphs each time took a tenth of
+    the time of drawing a road scene's pictures. A drawing whose font mode is not ``L`` draws the
+    text as usual."""
+    if draw.fontmode != "L":
+        draw.text(xy, text, fill=fill, font=font)
+        return
+    stamp, (left, top) = _text_stamp(text, font)
+    draw.bitmap((int(xy[0]) + left, int(xy[1]) + top), stamp, fill=fill)
+
+
+@lru_cache(maxsize=1024)
+def _text_stamp(text: str, font) -> tuple[Image.Image, tuple[int, int]]:
+    """The glyphs of ``text`` as a coverage mask (``L``: 255 where fully covered) and where its
+    top-left corner lies from the point the text is drawn at [px]."""
+    left, top, right, bottom = (int(v) for v in font.getbbox(text, "L"))
+    stamp = Image.new("L", (max(right - left, 1), max(bottom - top, 1)), 0)
+    ImageDraw.Draw(stamp).text((-left, -top), text, fill=255, font=font)
+    return stamp, (left, top)
 
 
 def fit_text(draw: ImageDraw.ImageDraw, text: str, font, width: float) -> str:

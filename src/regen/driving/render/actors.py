@@ -22,7 +22,7 @@ from regen.driving.render.roads import FRAME_W, MAP_H, View
 from regen.driving.world.actors import actor_category
 from regen.driving.world.geometry import to_world
 from regen.errors import RegenError
-from regen.media import text_font, text_length
+from regen.media import draw_tag_text, text_font, text_length
 
 log = logging.getLogger(__name__)
 
@@ -197,8 +197,9 @@ class Canvas:
             spots += [(px - w / 2, y0 - h - 2 - k * (h + 2)), (px - w / 2, y1 + 2 + k * (h + 2))]
         best, best_cost = None, None
         for n, (bx, by) in enumerate(spots):
-            # kept inside the map window so a tag at the border stays readable
-            bx, by = min(max(bx, 1), FRAME_W - w - 1), min(max(by, 1), MAP_H - h - 1)
+            # kept inside the map window so a tag at the border stays readable; on whole pixels
+            # (up and left: the gap above a body never narrows), where its text is stamped
+            bx, by = math.floor(min(max(bx, 1), FRAME_W - w - 1)), math.floor(min(max(by, 1), MAP_H - h - 1))
             rect = (bx, by, bx + w, by + h)
             tags = sum(_overlap(rect, r) for r in self.labels)
             bodies = sum(_overlap(rect, b) for b in self.bodies if b != box)
@@ -213,7 +214,7 @@ class Canvas:
             ty = rect[3] if rect[3] <= py else rect[1]
             self.draw.line([(px, py), ((rect[0] + rect[2]) / 2, ty)], fill=(*color, 220), width=1)
         self.draw.rectangle(rect, fill=(20, 20, 24, 170), outline=(*color, 255))
-        self.draw.text((rect[0] + 3, rect[1] + 1), text, fill=(255, 255, 255), font=font)
+        draw_tag_text(self.draw, (rect[0] + 3, rect[1] + 1), text, (255, 255, 255), font)
 
 
 def _overlap(a, b) -> bool:

@@ -110,7 +110,7 @@ def _draw_scale_bar(f: Canvas) -> None:
     x0, y0 = 10, MAP_H - 12
     f.draw.rectangle([x0 - 4, y0 - 16, x0 + length + 4, y0 + 6], fill=(255, 255, 255, 170))
     f.draw.line([(x0, y0), (x0 + length, y0)], fill=(20, 20, 24), width=3)
-    f.draw.text((x0, y0 - 15), f"{meters} m", fill=(20, 20, 24), font=text_font(10))
+    media.draw_tag_text(f.draw, (x0, y0 - 15), f"{meters} m", (20, 20, 24), text_font(10))
 
 
 @dataclass(frozen=True)

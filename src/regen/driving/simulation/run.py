@@ -264,6 +264,25 @@ def _collector_paused():
             gc.enable()
 
 
+@contextlib.contextmanager
+def quiet_behaviors():
+    """Scenic's stuck-behavior warning off for the block (restored as it was after it).
+
+    Scenic arms an alarm around every step of every behavior (``StuckBehaviorWarning`` after
+    ``scenic.core.dynamics.stuckBehaviorWarningTimeout`` [s]): four signal calls a step, which
+    measured 5% of a driving scenario's simulation and causal check. The alarm only warns, for a
+    hand-written behavior with a loop that never takes an action; the programs run here are
+    made from templates, and it stops nothing."""
+    from scenic.core import dynamics
+
+    was = dynamics.stuckBehaviorWarningTimeout
+    dynamics.stuckBehaviorWarningTimeout = 0
+    try:
+        yield
+    finally:
+        dynamics.stuckBehaviorWarningTimeout = was
+
+
 def compile_program(text: str, *, filename: str = "<regen>"):
     """Compile Scenic source into a scenario; Scenic errors become :class:`SimulationError`.
 
@@ -328,8 +347,9 @@ def run_program(text: str, *, steps: int, dt: float, seed: int = 0) -> RawRun:
     t2 = time.perf_counter()
     simulator = _recording_simulator_class()()
     try:
-        sim = simulator.simulate(scene, maxSteps=steps, timestep=dt, verbosity=0,
-                                 raiseGuardViolations=False)
+        with quiet_behaviors():
+            sim = simulator.simulate(scene, maxSteps=steps, timestep=dt, verbosity=0,
+                                     raiseGuardViolations=False)
     except Exception as exc:
         raise SimulationError(f"the Newtonian simulation failed: {type(exc).__name__}: {exc}") from exc
     t3 = time.perf_counter()

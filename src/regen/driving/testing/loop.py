@@ -350,7 +350,7 @@ def run_policy(scenario: Scenario | Prepared, policy: Callable, *,
     simulator faults raise :class:`~regen.errors.SimulationError` as in the normal pipeline.
     """
     from regen.driving.simulation.record import build_trace
-    from regen.driving.simulation.run import raw_run
+    from regen.driving.simulation.run import quiet_behaviors, raw_run
     from regen.driving.world.maps import geometry
 
     prep = scenario if isinstance(scenario, Prepared) else prepare(scenario)
@@ -377,8 +377,9 @@ def run_policy(scenario: Scenario | Prepared, policy: Callable, *,
     failure: PolicyFailure | None = None
     t0 = time.perf_counter()
     try:
-        sim = _simulator_class()(driver).simulate(scene, maxSteps=n_steps, timestep=prep.dt,
-                                                   verbosity=0, raiseGuardViolations=False)
+        with quiet_behaviors():
+            sim = _simulator_class()(driver).simulate(scene, maxSteps=n_steps, timestep=prep.dt,
+                                                       verbosity=0, raiseGuardViolations=False)
         if sim is None:
             raise SimulationError("the Newtonian simulation was rejected (a requirement failed)")
     except PolicyFailure as exc:
