@@ -38,3 +38,17 @@ def test_without_a_named_state_the_models_values_are_kept_as_before() -> None:
 def test_where_no_key_value_can_have_the_named_state_nothing_is_dropped() -> None:
     options = {**OPTIONS, "behavior": ("motion", ["brake_ahead", "stationary"])}
     assert _keys(choice_models(options, CHOICES, frozenset({"target_speed"}))) == ["brake_ahead", "stationary"]
+
+
+def test_the_same_choice_gets_the_same_answer_model_and_another_choice_another():
+    """A choice asked again (an expansion asks for the same few) gets the very classes made the
+    first time, so their schemas are made once; other values make other classes."""
+    from regen.llm.client import json_schema_of
+
+    first, again = choice_models(OPTIONS, CHOICES), choice_models(OPTIONS, CHOICES)
+    assert [id(m) for m in first] == [id(m) for m in again]
+    assert [json_schema_of(m) for m in first] == [m.model_json_schema() for m in again]
+    fewer = {p: (t, v[:1]) for p, (t, v) in OPTIONS.items()}
+    other = choice_models(fewer, None)
+    assert len(other) == 1 and all(other[0] is not m for m in first)
+    assert all(len(get_args(f.annotation)) == 1 for f in other[0].model_fields.values())

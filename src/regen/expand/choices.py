@@ -7,6 +7,7 @@ Imports: the shared core only (the contract's types for annotations).
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import create_model
@@ -32,8 +33,7 @@ def choice_models(options: dict[str, tuple[str, list[str]]], choices: PropertyCh
 def _choice_models(options: dict[str, tuple[str, list[str]]], choices: PropertyChoices | None,
                    named: frozenset[str]) -> list[Any]:
     def model(name: str, fixed: dict[str, list[str]]) -> Any:
-        fields = {p: (Literal[tuple(v)], ...) for p, v in fixed.items()}
-        return create_model(name, __base__=Answer, **fields)
+        return _values_model(name, tuple((p, tuple(v)) for p, v in fixed.items()))
 
     free = {p: list(v) for p, (_, v) in options.items()}
     if choices is not None and choices.key is None:  # restrictions whatever the other values
@@ -68,6 +68,15 @@ def _choice_models(options: dict[str, tuple[str, list[str]]], choices: PropertyC
             kept += 1
             out.append(model(f"Values{len(out)}", fixed))
     return out
+
+
+@lru_cache(maxsize=512)
+def _values_model(name: str, fixed: tuple[tuple[str, tuple[str, ...]], ...]) -> Any:
+    """The answer model with one of ``values`` per property (in this order): made once per
+    process, so that its JSON schema is too (:func:`regen.llm.client.json_schema_of`; pydantic
+    makes a class and its schema in about a millisecond each, and an expansion asks for the same
+    few again and again). The class is never changed after it is made."""
+    return create_model(name, __base__=Answer, **{p: (Literal[v], ...) for p, v in fixed})
 
 
 def only_names(role: str, options: dict[str, tuple[str, list[str]]]) -> bool:
