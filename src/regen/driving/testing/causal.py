@@ -17,7 +17,8 @@ its recorded speed and lateral offset:
 - ``slows down``: its speed fell by at least 2 m/s and a fifth of its cruise speed;
 - ``drives off``: it stood still for at least 1 s (after creeping up to what holds it, as IDM
   does), then reached 2 m/s;
-- ``changes lane``: it ends 0.6 lane widths or more to the side of the lane it started in.
+- ``changes lane``: it moves 0.6 lane widths or more to the side of the lane it started in (at
+  any time: one that overtakes and comes back changed lane).
 
 The reaction's onset is when it started braking (or moving, or moving across). With the cause
 present, the behavior counts when the driver reacted to an entity of the cause (what it braked
