@@ -227,3 +227,16 @@ def test_a_stamped_tag_text_has_the_pixels_of_drawing_it(mode, blend):
         assert stamped.tobytes() == drawn.tobytes(), (mode, blend, text, xy, fill)
         if text.strip() and 0 <= xy[0] < 60 and 0 <= xy[1] < 20:  # the text did land on the image
             assert stamped.tobytes() != Image.new(mode, (120, 40), back).tobytes()
+
+
+def test_a_tag_text_between_pixels_is_drawn_as_pillow_places_it():
+    """At a point between pixels the glyphs are placed by the fraction: no stamp, the pixels
+    of ImageDraw.text."""
+    from PIL import ImageDraw
+
+    font = media.text_font(11)
+    for xy in [(10.5, 4.0), (10.0, 4.25), (3.7, 8.6)]:
+        drawn, stamped = Image.new("RGB", (80, 30)), Image.new("RGB", (80, 30))
+        ImageDraw.Draw(drawn).text(xy, "adult1", fill=(255, 255, 255), font=font)
+        media.draw_tag_text(ImageDraw.Draw(stamped), xy, "adult1", (255, 255, 255), font)
+        assert stamped.tobytes() == drawn.tobytes(), xy

@@ -24,9 +24,9 @@ from regen.core.io import atomic_write_bytes
 from regen.errors import ConfigError
 
 __all__ = ["CAPTION_BG", "CAPTION_FG", "CAPTION_H", "HOLD_MS", "STAGE_DONE", "STAGE_FAILED", "STAGE_TODO",
-           "AnimationSettings", "StageBar", "animation_steps", "draw_caption", "draw_tag_text", "draw_title", "fit_text",
-           "frame_ms", "held", "keyframe_steps", "palette_of", "spread", "steps_until", "strip", "text_font",
-           "text_length", "write_gif", "write_png"]
+           "AnimationSettings", "StageBar", "animation_steps", "draw_caption", "draw_tag_text", "draw_title",
+           "fit_text", "frame_ms", "held", "keyframe_steps", "palette_of", "spread", "steps_until", "strip",
+           "text_font", "text_length", "write_gif", "write_png"]
 
 MIN_FRAME_MS = 20  # shortest frame [ms]: viewers play shorter GIF delays slower, not faster
 SINGLE_FRAME_MS = 1000  # display time of a one-frame animation [ms]
@@ -305,13 +305,14 @@ def draw_tag_text(draw: ImageDraw.ImageDraw, xy: tuple[int, int], text: str, fil
     """``draw.text(xy, text, fill=fill, font=font)`` at the whole pixel ``xy`` (left, top): the
     same pixels, from a stamp of the glyphs kept per text and font (:func:`_text_stamp`). A name
     tag is drawn on every frame of an animation; rasterizing its glyphs each time took a tenth of
-    the time of drawing a road scene's pictures. A drawing whose font mode is not ``L`` draws the
-    text as usual."""
-    if draw.fontmode != "L":
+    the time of drawing a road scene's pictures. A drawing whose font mode is not ``L``, or a
+    point between pixels (its glyphs are placed by the fraction), draws the text as usual."""
+    x, y = xy
+    if draw.fontmode != "L" or x != int(x) or y != int(y):
         draw.text(xy, text, fill=fill, font=font)
         return
     stamp, (left, top) = _text_stamp(text, font)
-    draw.bitmap((int(xy[0]) + left, int(xy[1]) + top), stamp, fill=fill)
+    draw.bitmap((int(x) + left, int(y) + top), stamp, fill=fill)
 
 
 @lru_cache(maxsize=1024)
