@@ -199,29 +199,6 @@ def test_run_expand_writes_json_png_and_offline_html(tmp_path: Path) -> None:
     assert img.width > 600 and img.height > 300
 
 
-def test_the_graph_picture_is_drawn_once_with_the_pixels_of_a_tight_layout(tmp_path: Path, monkeypatch) -> None:
-    """savefig draws the figure once, not a second time for the layout engine tight_layout leaves
-    behind: the same pixels as with that engine kept."""
-    import numpy as np
-    from matplotlib.figure import Figure
-    from PIL import Image
-
-    from regen.expand.pictures import draw_png
-
-    graph = run_expand(_behavior(), LLM(FunctionProvider(_model())), tmp_path, limits=Limits(max_depth=2)).graph
-    draws, draw, engine = [], Figure.draw, Figure.set_layout_engine
-    monkeypatch.setattr(Figure, "draw", lambda self, renderer: (draws.append(1), draw(self, renderer))[1])
-    draw_png(graph, tmp_path / "once.png")
-    assert len(draws) == 1
-    # as before: the engine kept (tight_layout's own calls pass), so savefig draws twice
-    monkeypatch.setattr(Figure, "set_layout_engine",
-                        lambda self, layout=None, **kw: None if layout is None else engine(self, layout, **kw))
-    draw_png(graph, tmp_path / "kept.png")
-    assert len(draws) == 3
-    once, kept = (np.asarray(Image.open(tmp_path / f"{n}.png")) for n in ("once", "kept"))
-    assert once.shape == kept.shape and np.array_equal(once, kept)
-
-
 def test_hostile_labels_are_escaped_in_html(tmp_path: Path) -> None:
     evil = "</script><script>alert(1)</script>"
     model = _model(causes={STOP: [evil]}, entities={evil: ["adult"]})

@@ -11,7 +11,6 @@ import json
 import re
 from pathlib import Path
 
-import pytest
 from report_runs import make_scenario  # tests/report (see conftest)
 
 from regen.core.behavior import Behavior
@@ -79,7 +78,6 @@ def test_graph_page_has_no_control_characters_or_lone_surrogates(tmp_path: Path)
     assert node["label"] == KEPT
 
 
-@pytest.mark.filterwarnings("ignore:Glyph .* missing from font")  # the emoji: no glyph, no harm
 def test_graph_picture_draws_any_label(tmp_path: Path) -> None:
     """graph.png is drawn beside graph.html: a lone surrogate or a '$' pair (matplotlib math)
     in a label must not cost the pictures."""
@@ -91,7 +89,5 @@ def test_graph_picture_draws_any_label(tmp_path: Path) -> None:
     cause = Node(id="eve-dirty", kind="event", label=label, status="accepted", depth=1)
     graph.nodes[cause.id] = cause
     graph.edges.append(Edge(source=cause.id, target=graph.root, kind="causes"))
-    for suffix in ("png", "svg"):
-        out = draw_png(graph, tmp_path / f"graph.{suffix}")
-        assert out.stat().st_size > 0
-    _assert_clean((tmp_path / "graph.svg").read_bytes())
+    out = draw_png(graph, tmp_path / "graph.png")
+    assert out.stat().st_size > 0
