@@ -229,14 +229,56 @@ def test_a_stamped_tag_text_has_the_pixels_of_drawing_it(mode, blend):
             assert stamped.tobytes() != Image.new(mode, (120, 40), back).tobytes()
 
 
-def test_a_tag_text_between_pixels_is_drawn_as_pillow_places_it():
-    """At a point between pixels the glyphs are placed by the fraction: no stamp, the pixels
-    of ImageDraw.text."""
+def test_a_tag_text_between_pixels_has_the_pixels_pillow_places_there():
+    """At a point between pixels Pillow places the glyphs by the fraction: the stamp is drawn at
+    the same fraction, so the pixels are ImageDraw.text's; left of or above the image between
+    pixels it is drawn as usual."""
     from PIL import ImageDraw
 
     font = media.text_font(11)
-    for xy in [(10.5, 4.0), (10.0, 4.25), (3.7, 8.6)]:
+    media._text_stamp.cache_clear()
+    points = [(10.5, 4.0), (10.0, 4.25), (3.7, 8.6), (0.015625, 0.5), (60.984375, 2.0), (-3.5, 4.0), (5.0, -2.25)]
+    for xy in points:
         drawn, stamped = Image.new("RGB", (80, 30)), Image.new("RGB", (80, 30))
         ImageDraw.Draw(drawn).text(xy, "adult1", fill=(255, 255, 255), font=font)
         media.draw_tag_text(ImageDraw.Draw(stamped), xy, "adult1", (255, 255, 255), font)
         assert stamped.tobytes() == drawn.tobytes(), xy
+    assert media._text_stamp.cache_info().currsize == len(points) - 2  # one stamp a fraction
+
+
+def test_a_line_drawn_word_by_word_has_the_pixels_and_width_of_drawing_it_whole():
+    """The caption's time line is stamped word by word (draw_text_line): the same pixels and the
+    same width as ImageDraw.text and textlength, at whole and fractional points, in every font
+    size the pictures use, with runs of spaces and characters outside ASCII."""
+    from PIL import ImageDraw
+
+    rng = np.random.default_rng(11)
+    lines = [f"t = {t:5.1f} s / {end:.1f} s   ego {v:4.1f} m/s" for t, end, v in
+             zip(rng.uniform(0, 120, 40), rng.choice([8.0, 16.0, 100.0], 40), rng.uniform(0, 30, 40), strict=True)]
+    lines += ["  two  spaces ", "Wq|gj ÄÖ AV To", "", "t = 3.0 s   gripper 0.04 m", "ego"]
+    for k, text in enumerate(lines):
+        font = media.text_font(int(rng.choice([10, 11, 13])), bold=bool(k % 2))
+        xy = (float(rng.integers(0, 40)) + rng.choice([0.0, 0.25, 0.5, 0.734375]), float(rng.integers(0, 8)))
+        drawn, stamped = Image.new("RGB", (420, 30), (28, 30, 36)), Image.new("RGB", (420, 30), (28, 30, 36))
+        draw = ImageDraw.Draw(drawn)
+        draw.text(xy, text, fill=(240, 240, 240), font=font)
+        width = media.draw_text_line(ImageDraw.Draw(stamped), xy, text, (240, 240, 240), font)
+        assert stamped.tobytes() == drawn.tobytes(), (text, xy)
+        assert width == draw.textlength(text, font=font), text
+
+
+def test_a_word_that_kerns_with_a_space_keeps_the_line_whole(monkeypatch):
+    """Where a word's end kerns with a space in the font, the words do not simply add up: the
+    line is drawn and measured in one go."""
+    from PIL import ImageDraw
+
+    font = media.text_font(13, bold=True)
+    calls = []
+    monkeypatch.setattr(media, "draw_tag_text", lambda *a: calls.append(a))
+    monkeypatch.setattr(media, "_kerns_not_with_space", lambda c, f, m: c != "V")
+    drawn, whole = Image.new("RGB", (300, 30)), Image.new("RGB", (300, 30))
+    ImageDraw.Draw(drawn).text((5, 5), "t = 1.0 s AV", fill=(255, 255, 255), font=font)
+    media.draw_text_line(ImageDraw.Draw(whole), (5, 5), "t = 1.0 s AV", (255, 255, 255), font)
+    assert not calls and whole.tobytes() == drawn.tobytes()
+    media.draw_text_line(ImageDraw.Draw(whole), (5, 5), "t = 1.0 s", (255, 255, 255), font)
+    assert len(calls) == 4  # t, =, 1.0, s

@@ -24,7 +24,7 @@ from regen.core.io import atomic_write_bytes
 from regen.errors import ConfigError
 
 __all__ = ["CAPTION_BG", "CAPTION_FG", "CAPTION_H", "HOLD_MS", "STAGE_DONE", "STAGE_FAILED", "STAGE_TODO",
-           "AnimationSettings", "StageBar", "animation_steps", "draw_caption", "draw_tag_text", "draw_title",
+           "AnimationSettings", "StageBar", "animation_steps", "draw_caption", "draw_tag_text", "draw_text_line", "draw_title",
            "fit_text", "frame_ms", "held", "keyframe_steps", "palette_of", "spread", "steps_until", "strip",
            "text_font", "text_length", "write_gif", "write_png"]
 
@@ -301,28 +301,70 @@ def text_length(text: str, font, mode: str = "RGB") -> float:
     return ImageDraw.Draw(Image.new(mode, (1, 1))).textlength(text, font=font)
 
 
-def draw_tag_text(draw: ImageDraw.ImageDraw, xy: tuple[int, int], text: str, fill, font) -> None:
-    """``draw.text(xy, text, fill=fill, font=font)`` at the whole pixel ``xy`` (left, top): the
-    same pixels, from a stamp of the glyphs kept per text and font (:func:`_text_stamp`). A name
+def draw_tag_text(draw: ImageDraw.ImageDraw, xy: tuple[float, float], text: str, fill, font) -> None:
+    """``draw.text(xy, text, fill=fill, font=font)``: the same pixels, from a stamp of the glyphs
+    kept per text, font and the fraction of a pixel ``xy`` lies at (:func:`_text_stamp`). A name
     tag is drawn on every frame of an animation; rasterizing its glyphs each time took a tenth of
     the time of drawing a road scene's pictures. A drawing whose font mode is not ``L``, or a
-    point between pixels (its glyphs are placed by the fraction), draws the text as usual."""
+    point left or above the image between pixels, draws the text as usual."""
     x, y = xy
-    if draw.fontmode != "L" or x != int(x) or y != int(y):
+    if draw.fontmode != "L" or (x < 0 and x != int(x)) or (y < 0 and y != int(y)):
         draw.text(xy, text, fill=fill, font=font)
         return
-    stamp, (left, top) = _text_stamp(text, font)
-    draw.bitmap((int(x) + left, int(y) + top), stamp, fill=fill)
+    ix, iy = int(x), int(y)
+    stamp, (left, top) = _text_stamp(text, font, x - ix, y - iy)
+    draw.bitmap((ix + left, iy + top), stamp, fill=fill)
+
+
+@lru_cache(maxsize=4096)
+def _text_stamp(text: str, font, fx: float = 0.0, fy: float = 0.0) -> tuple[Image.Image, tuple[int, int]]:
+    """The glyphs of ``text`` drawn at the fraction (``fx``, ``fy``) of a pixel, as a coverage
+    mask (``L``: 255 where fully covered), and where its top-left corner lies from the whole
+    pixel the text is drawn at [px]. Drawn at a whole pixel plus the same fraction, so Pillow
+    places the glyphs as it does on the image; a pixel of margin takes the fraction's shift."""
+    left, top, right, bottom = (int(v) for v in font.getbbox(text, "L"))
+    ox, oy = 1 + max(0, -left), 1 + max(0, -top)  # the text's point in the stamp, never negative
+    stamp = Image.new("L", (max(ox + right + 2, 1), max(oy + bottom + 2, 1)), 0)
+    ImageDraw.Draw(stamp).text((ox + fx, oy + fy), text, fill=255, font=font)
+    return stamp, (-ox, -oy)
+
+
+def draw_text_line(draw: ImageDraw.ImageDraw, xy: tuple[float, float], text: str, fill, font) -> float:
+    """``draw.text(xy, text, ...)`` for a one-line ``text`` whose words change (a time, a
+    speed): each word stamped where Pillow places it (:func:`draw_tag_text`), so a new line
+    costs no new rasterizing of the words seen before. Returns the line's width [px], as
+    ``draw.textlength`` measures it."""
+    words, width = _line_layout(text, font, draw.mode)
+    if words is None:  # a word's end kerns with a space: drawn in one go
+        draw.text(xy, text, fill=fill, font=font)
+    else:
+        for at, word in words:
+            draw_tag_text(draw, (xy[0] + at, xy[1]), word, fill, font)
+    return width
+
+
+def _line_layout(text: str, font, mode: str) -> tuple[list[tuple[float, str]] | None, float]:
+    """Where each word of the one-line ``text`` starts [px from the line's point] and the
+    line's width, from the words' kept widths; no words (None) when the end of one kerns with
+    a space in ``font``, since then they do not simply add up."""
+    words = text.split(" ")
+    if not all(_kerns_not_with_space(c, font, mode) for w in words if w for c in {w[0], w[-1]}):
+        return None, ImageDraw.Draw(Image.new(mode, (1, 1))).textlength(text, font=font)
+    space, at, starts = text_length(" ", font, mode), 0.0, []
+    for k, word in enumerate(words):
+        at += space if k else 0.0
+        if word:
+            starts.append((at, word))
+            at += text_length(word, font, mode)
+    return starts, at
 
 
 @lru_cache(maxsize=1024)
-def _text_stamp(text: str, font) -> tuple[Image.Image, tuple[int, int]]:
-    """The glyphs of ``text`` as a coverage mask (``L``: 255 where fully covered) and where its
-    top-left corner lies from the point the text is drawn at [px]."""
-    left, top, right, bottom = (int(v) for v in font.getbbox(text, "L"))
-    stamp = Image.new("L", (max(right - left, 1), max(bottom - top, 1)), 0)
-    ImageDraw.Draw(stamp).text((-left, -top), text, fill=255, font=font)
-    return stamp, (left, top)
+def _kerns_not_with_space(c: str, font, mode: str) -> bool:
+    """Whether ``c`` next to a space, on either side, is as wide as the two apart in ``font``:
+    then a line's width is the sum of its words' and spaces', and each word starts there."""
+    both = text_length(c, font, mode) + text_length(" ", font, mode)
+    return text_length(c + " ", font, mode) == both == text_length(" " + c, font, mode)
 
 
 def fit_text(draw: ImageDraw.ImageDraw, text: str, font, width: float) -> str:
@@ -356,8 +398,9 @@ def draw_caption(img: Image.Image, top: int, bar: StageBar, t: float, extra: str
     reached on the second.
 
     Only the time changes from frame to frame: the rest of the band is drawn once per state of
-    the stage boxes and kept (:func:`_caption_band`), which makes a frame's caption several
-    times cheaper with the same pixels.
+    the stage boxes and kept (:func:`_caption_band`), and the time line is stamped word by word
+    (:func:`draw_text_line`), which makes a frame's caption several times cheaper with the same
+    pixels.
     """
     draw = ImageDraw.Draw(img)
     big, small = text_font(13, bold=True), text_font(11)
@@ -366,7 +409,7 @@ def draw_caption(img: Image.Image, top: int, bar: StageBar, t: float, extra: str
     status = bar.status.replace("_", " ")
     if bar.failed_stage is not None and not ok:
         status += f" (stage {bar.failed_stage} unmet)"
-    room = img.width - 16 - draw.textlength(left, font=big) - 12  # a new line each frame: not remembered
+    room = img.width - 16 - _line_layout(left, big, draw.mode)[1] - 12
     status = fit_text(draw, status, small, max(room, 40))
     boxes, current = [], None
     at_end = t >= bar.t_end - 1e-9
@@ -385,7 +428,7 @@ def draw_caption(img: Image.Image, top: int, bar: StageBar, t: float, extra: str
     apart = room >= 40  # else the verdict is drawn over the end of a long time line, as before
     band = _caption_band(img.mode, img.width, status if apart else "", color, tuple(boxes), text)
     img.paste(band, (0, top))  # cut off at the image's bottom edge
-    draw.text((8, top + 6), left, fill=CAPTION_FG, font=big)
+    draw_text_line(draw, (8, top + 6), left, CAPTION_FG, big)  # a new line each frame: stamped by word
     if not apart:
         sw = text_length(status, small, draw.mode)
         draw.text((img.width - sw - 8, top + 8), status, fill=color, font=small)
