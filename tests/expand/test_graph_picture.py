@@ -93,3 +93,26 @@ def test_a_picture_is_a_png(graph, tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match=r"\.png"):
         draw_png(graph, tmp_path / "graph.svg")
     assert not (tmp_path / "graph.svg").exists()
+
+
+def test_a_graph_too_large_to_draw_twice_the_size_is_drawn_at_its_size(graph, tmp_path: Path, monkeypatch) -> None:
+    """Boxes and arrows are drawn at twice the size and halved, unless that drawing would pass
+    MAX_SUPERSAMPLED_PX (a graph of hundreds of nodes): then at the picture's size, with every
+    box and arrow where the layout puts them all the same."""
+    from regen.expand import pictures
+
+    pic = picture_layout(graph)
+    monkeypatch.setattr(pictures, "MAX_SUPERSAMPLED_PX", pic.width * pic.height * 2)  # < 4x the area
+    made = []
+    new = Image.new
+    monkeypatch.setattr(pictures.Image, "new", lambda mode, size, *a: (made.append(size), new(mode, size, *a))[1])
+    img = np.asarray(Image.open(draw_png(graph, tmp_path / "graph.png")).convert("RGB"))
+    assert made[0] == (pic.width, pic.height) and img.shape == (pic.height, pic.width, 3)
+    for box in pic.boxes.values():
+        if not box.muted and box.node != graph.root:
+            assert tuple(int(v) for v in img[round(box.middle), int(box.left) + 4]) == _rgb(COLORS[box.kind])
+    for a in pic.arrows:
+        if a.accepted:
+            (x0, y0), (x1, y1) = a.start, a.end
+            x, y = (x0 + x1) / 2, (y0 + y1) / 2
+            assert img[round(y) - 1: round(y) + 2, round(x) - 1: round(x) + 2].min() < 140

@@ -130,6 +130,7 @@ MARGIN = 24  # [px] around everything
 TOP = MARGIN + 30 + 28  # [px] the title and the column headings above the first row
 LEGEND_H = 44  # [px] the legend band below the last row
 SS = 2  # boxes and arrows drawn this many times larger, then halved
+MAX_SUPERSAMPLED_PX = 24_000_000  # [px] a larger graph is drawn at its size (72 MB of RGB at most)
 WHITE = (255, 255, 255)
 EDGE, EDGE_REJECTED = (85, 85, 85), (200, 200, 200)
 OUTLINE, OUTLINE_MUTED = (51, 51, 51), (153, 153, 153)
@@ -255,13 +256,14 @@ def draw_png(graph: ScenarioGraph, path: Path) -> Path:
         raise ConfigError(f"{path}: the graph's picture is a PNG; give a path ending in .png "
                           "(graph.html is the scalable, interactive picture)")
     pic = picture_layout(graph)
-    shapes = Image.new("RGB", (pic.width * SS, pic.height * SS), WHITE)
+    ss = SS if pic.width * pic.height * SS * SS <= MAX_SUPERSAMPLED_PX else 1
+    shapes = Image.new("RGB", (pic.width * ss, pic.height * ss), WHITE)
     draw = ImageDraw.Draw(shapes)
     for a in sorted(pic.arrows, key=lambda a: a.accepted):  # accepted ones on top
-        _arrow(draw, a)
+        _arrow(draw, a, ss)
     for b in pic.boxes.values():
-        _box(draw, b)
-    img = shapes.reduce(SS)
+        _box(draw, b, ss)
+    img = shapes.reduce(ss) if ss > 1 else shapes
     _texts(ImageDraw.Draw(img), pic)
     buf = io.BytesIO()
     img.save(buf, format="PNG", compress_level=6)
@@ -269,21 +271,22 @@ def draw_png(graph: ScenarioGraph, path: Path) -> Path:
     return atomic_write_bytes(path, buf.getvalue())
 
 
-def _arrow(draw: ImageDraw.ImageDraw, a: Arrow) -> None:
-    (x0, y0), (x1, y1) = ((x * SS, y * SS) for x, y in (a.start, a.end))
+def _arrow(draw: ImageDraw.ImageDraw, a: Arrow, ss: int) -> None:
+    """``a`` on a drawing ``ss`` times the picture's size."""
+    (x0, y0), (x1, y1) = ((x * ss, y * ss) for x, y in (a.start, a.end))
     length = math.hypot(x1 - x0, y1 - y0)
     if length < 1:
         return
     ux, uy = (x1 - x0) / length, (y1 - y0) / length
-    head = (9 if a.accepted else 7) * SS
+    head = (9 if a.accepted else 7) * ss
     half = head * 0.42
     bx, by = x1 - ux * head, y1 - uy * head  # the head's base: the line stops there
     color = EDGE if a.accepted else EDGE_REJECTED
-    width = round(1.6 * SS) if a.accepted else SS
+    width = max(1, round(1.6 * ss)) if a.accepted else ss
     if a.accepted:
         draw.line([(x0, y0), (bx, by)], fill=color, width=width)
     else:  # dashed, as a rejected candidate is
-        dash, gap = 6 * SS, 4 * SS
+        dash, gap = 6 * ss, 4 * ss
         along = 0.0
         while along < length - head:
             stop = min(along + dash, length - head)
@@ -292,10 +295,11 @@ def _arrow(draw: ImageDraw.ImageDraw, a: Arrow) -> None:
     draw.polygon([(x1, y1), (bx - uy * half, by + ux * half), (bx + uy * half, by - ux * half)], fill=color)
 
 
-def _box(draw: ImageDraw.ImageDraw, b: Box) -> None:
+def _box(draw: ImageDraw.ImageDraw, b: Box, ss: int) -> None:
+    """``b`` on a drawing ``ss`` times the picture's size."""
     outline = OUTLINE_MUTED if b.muted else OUTLINE
-    draw.rounded_rectangle([b.left * SS, b.top * SS, b.right * SS, b.bottom * SS], radius=RADIUS[b.kind] * SS,
-                           fill=b.fill, outline=outline, width=SS)
+    draw.rounded_rectangle([b.left * ss, b.top * ss, b.right * ss, b.bottom * ss], radius=RADIUS[b.kind] * ss,
+                           fill=b.fill, outline=outline, width=ss)
 
 
 def _texts(draw: ImageDraw.ImageDraw, pic: PictureLayout) -> None:
