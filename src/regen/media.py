@@ -333,9 +333,10 @@ def draw_text_line(draw: ImageDraw.ImageDraw, xy: tuple[float, float], text: str
     """``draw.text(xy, text, ...)`` for a one-line ``text`` whose words change (a time, a
     speed): each word stamped where Pillow places it (:func:`draw_tag_text`), so a new line
     costs no new rasterizing of the words seen before. Returns the line's width [px], as
-    ``draw.textlength`` measures it."""
+    ``draw.textlength`` measures it (text of several lines: drawn in one go, the widest line's
+    width)."""
     words, width = _line_layout(text, font, draw.mode)
-    if words is None:  # a word's end kerns with a space: drawn in one go
+    if words is None:  # several lines, or a word whose end kerns with a space: drawn in one go
         draw.text(xy, text, fill=fill, font=font)
     else:
         for at, word in words:
@@ -346,7 +347,9 @@ def draw_text_line(draw: ImageDraw.ImageDraw, xy: tuple[float, float], text: str
 def _line_layout(text: str, font, mode: str) -> tuple[list[tuple[float, str]] | None, float]:
     """Where each word of the one-line ``text`` starts [px from the line's point] and the
     line's width, from the words' kept widths; no words (None) when the end of one kerns with
-    a space in ``font``, since then they do not simply add up."""
+    a space in ``font``, since then they do not simply add up, or for more than one line."""
+    if "\n" in text:  # drawn in one go; as wide as its widest line
+        return None, max(text_length(line, font, mode) for line in text.split("\n"))
     words = text.split(" ")
     if not all(_kerns_not_with_space(c, font, mode) for w in words if w for c in {w[0], w[-1]}):
         return None, ImageDraw.Draw(Image.new(mode, (1, 1))).textlength(text, font=font)

@@ -107,7 +107,8 @@ def test_a_graph_too_large_to_draw_twice_the_size_is_drawn_at_its_size(graph, tm
     new = Image.new
     monkeypatch.setattr(pictures.Image, "new", lambda mode, size, *a: (made.append(size), new(mode, size, *a))[1])
     img = np.asarray(Image.open(draw_png(graph, tmp_path / "graph.png")).convert("RGB"))
-    assert made[0] == (pic.width, pic.height) and img.shape == (pic.height, pic.width, 3)
+    assert (pic.width, pic.height) in made and (2 * pic.width, 2 * pic.height) not in made
+    assert img.shape == (pic.height, pic.width, 3)
     for box in pic.boxes.values():
         if not box.muted and box.node != graph.root:
             assert tuple(int(v) for v in img[round(box.middle), int(box.left) + 4]) == _rgb(COLORS[box.kind])
@@ -116,3 +117,17 @@ def test_a_graph_too_large_to_draw_twice_the_size_is_drawn_at_its_size(graph, tm
             (x0, y0), (x1, y1) = a.start, a.end
             x, y = (x0 + x1) / 2, (y0 + y1) / 2
             assert img[round(y) - 1: round(y) + 2, round(x) - 1: round(x) + 2].min() < 140
+
+
+def test_a_long_behavior_is_cut_to_the_pictures_width(graph) -> None:
+    """The title is the behavior: a long one ends in an ellipsis at the picture's width instead
+    of widening the picture past its columns."""
+    from regen.core.behavior import Behavior
+    from regen.media import text_font, text_length
+
+    long = graph.model_copy(update={"behavior": Behavior(text=STOP + ", " + "very " * 80 + "slowly",
+                                                         domain="driving")})
+    short, cut = picture_layout(graph), picture_layout(long)
+    assert cut.width == short.width
+    assert cut.title.endswith("\u2026") and cut.title.startswith("Scenario graph: " + STOP)
+    assert text_length(cut.title, text_font(16)) <= cut.width - 2 * 24

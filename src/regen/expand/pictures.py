@@ -127,6 +127,7 @@ LINE_H = 14  # [px] between the lines of a box's text
 PAD_X, PAD_Y = 9, 7  # [px] text to box edge
 COL_GAP, ROW_GAP = 96, 22  # [px] between columns (room for arrows) and between rows
 MARGIN = 24  # [px] around everything
+MIN_WIDTH = 640  # [px] the narrowest picture (the title's room)
 TOP = MARGIN + 30 + 28  # [px] the title and the column headings above the first row
 LEGEND_H = 44  # [px] the legend band below the last row
 SS = 2  # boxes and arrows drawn this many times larger, then halved
@@ -223,10 +224,11 @@ def picture_layout(graph: ScenarioGraph) -> PictureLayout:
     arrows = _arrows(graph, boxes)
     heads = ["properties", "entities"] + [f"causes (depth {d})" for d in range(ncols - 3, 0, -1)] + ["behavior"]
     headings = [(lefts[c] + col_w[c] / 2, h) for c, h in enumerate(heads[:ncols])]
-    title = f"Scenario graph: {_clean(graph.behavior.text)}"
     nrows = max(int(math.ceil(y + 0.5)) for _, y in pos.values())
-    width = max(lefts[-1] + col_w[-1] + MARGIN, _legend_width() + 2 * MARGIN,
-                media.text_length(title, media.text_font(TITLE_PX)) + 2 * MARGIN)
+    width = max(lefts[-1] + col_w[-1] + MARGIN, _legend_width() + 2 * MARGIN, MIN_WIDTH)
+    # a long behavior is cut with an ellipsis to the picture's width; graph.html shows all of it
+    title = media.fit_text(ImageDraw.Draw(Image.new("RGB", (1, 1))), f"Scenario graph: {_clean(graph.behavior.text)}",
+                           media.text_font(TITLE_PX), width - 2 * MARGIN)
     return PictureLayout(int(math.ceil(width)), int(TOP + pitch * nrows + LEGEND_H + MARGIN), boxes, arrows,
                          headings, title)
 
