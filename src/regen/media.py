@@ -336,12 +336,18 @@ def draw_text_line(draw: ImageDraw.ImageDraw, xy: tuple[float, float], text: str
     ``draw.textlength`` measures it (text of several lines: drawn in one go, the widest line's
     width)."""
     words, width = _line_layout(text, font, draw.mode)
+    _draw_words(draw, xy, text, words, fill, font)
+    return width
+
+
+def _draw_words(draw: ImageDraw.ImageDraw, xy: tuple[float, float], text: str,
+                words: list[tuple[float, str]] | None, fill, font) -> None:
+    """``text`` drawn as :func:`_line_layout` laid it out (``words``)."""
     if words is None:  # several lines, or a word whose end kerns with a space: drawn in one go
         draw.text(xy, text, fill=fill, font=font)
-    else:
-        for at, word in words:
-            draw_tag_text(draw, (xy[0] + at, xy[1]), word, fill, font)
-    return width
+        return
+    for at, word in words:
+        draw_tag_text(draw, (xy[0] + at, xy[1]), word, fill, font)
 
 
 def _line_layout(text: str, font, mode: str) -> tuple[list[tuple[float, str]] | None, float]:
@@ -412,7 +418,8 @@ def draw_caption(img: Image.Image, top: int, bar: StageBar, t: float, extra: str
     status = bar.status.replace("_", " ")
     if bar.failed_stage is not None and not ok:
         status += f" (stage {bar.failed_stage} unmet)"
-    room = img.width - 16 - _line_layout(left, big, draw.mode)[1] - 12
+    words, width = _line_layout(left, big, draw.mode)  # a new line each frame: stamped by word
+    room = img.width - 16 - width - 12
     status = fit_text(draw, status, small, max(room, 40))
     boxes, current = [], None
     at_end = t >= bar.t_end - 1e-9
@@ -431,7 +438,7 @@ def draw_caption(img: Image.Image, top: int, bar: StageBar, t: float, extra: str
     apart = room >= 40  # else the verdict is drawn over the end of a long time line, as before
     band = _caption_band(img.mode, img.width, status if apart else "", color, tuple(boxes), text)
     img.paste(band, (0, top))  # cut off at the image's bottom edge
-    draw_text_line(draw, (8, top + 6), left, CAPTION_FG, big)  # a new line each frame: stamped by word
+    _draw_words(draw, (8, top + 6), left, words, CAPTION_FG, big)
     if not apart:
         sw = text_length(status, small, draw.mode)
         draw.text((img.width - sw - 8, top + 8), status, fill=color, font=small)

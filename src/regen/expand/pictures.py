@@ -13,17 +13,16 @@ It replaced a matplotlib figure that took about 0.14 s a run, most of it laying 
 from __future__ import annotations
 
 import html
-import io
 import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from PIL import Image, ImageDraw
+from PIL import Image, ImageColor, ImageDraw
 
 from regen import media
 from regen.core.graph import ScenarioGraph
-from regen.core.io import atomic_write_bytes, atomic_write_text
+from regen.core.io import atomic_write_text
 from regen.core.text import clean_data
 from regen.errors import ConfigError
 
@@ -181,16 +180,12 @@ class PictureLayout:
     title: str
 
 
-def _rgb(color: str) -> tuple[int, int, int]:
-    return tuple(int(color[k: k + 2], 16) for k in (1, 3, 5))  # type: ignore[return-value]
-
-
 def _fill(graph: ScenarioGraph, nid: str) -> tuple[tuple[int, int, int], bool]:
     color, alpha = _color(graph, nid)
     if alpha >= 1.0:
-        return _rgb(color), False
+        return ImageColor.getrgb(color), False
     # a muted box: its grey laid over white at the alpha the matplotlib picture used
-    return tuple(round(alpha * c + (1 - alpha) * 255) for c in _rgb(color)), True  # type: ignore[return-value]
+    return tuple(round(alpha * c + (1 - alpha) * 255) for c in ImageColor.getrgb(color)), True  # type: ignore[return-value]
 
 
 def picture_layout(graph: ScenarioGraph) -> PictureLayout:
@@ -267,10 +262,7 @@ def draw_png(graph: ScenarioGraph, path: Path) -> Path:
         _box(draw, b, ss)
     img = shapes.reduce(ss) if ss > 1 else shapes
     _texts(ImageDraw.Draw(img), pic)
-    buf = io.BytesIO()
-    img.save(buf, format="PNG", compress_level=6)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    return atomic_write_bytes(path, buf.getvalue())
+    return media.write_png(path, img, compress_level=6)
 
 
 def _arrow(draw: ImageDraw.ImageDraw, a: Arrow, ss: int) -> None:
@@ -323,13 +315,17 @@ def _texts(draw: ImageDraw.ImageDraw, pic: PictureLayout) -> None:
 
 
 def _legend_entries() -> list[tuple[tuple[int, int, int], str]]:
-    return [(_rgb(COLORS[k]), k) for k in ("behavior", "event", "entity", "property")] + \
-        [(_rgb(MUTED), "rejected / not simulatable")]
+    return [(ImageColor.getrgb(COLORS[k]), k) for k in ("behavior", "event", "entity", "property")] + \
+        [(ImageColor.getrgb(MUTED), "rejected / not simulatable")]
+
+
+def _legend_step(text: str) -> float:
+    """[px] from one legend entry's square to the next: square, gap, ``text``, gap."""
+    return 14 + 6 + media.text_length(text, media.text_font(LEGEND_PX)) + 22
 
 
 def _legend_width() -> float:
-    font = media.text_font(LEGEND_PX)
-    return sum(14 + 6 + media.text_length(text, font) + 22 for _, text in _legend_entries()) - 22
+    return sum(_legend_step(text) for _, text in _legend_entries()) - 22
 
 
 def _legend(draw: ImageDraw.ImageDraw, pic: PictureLayout) -> None:
@@ -340,7 +336,7 @@ def _legend(draw: ImageDraw.ImageDraw, pic: PictureLayout) -> None:
     for color, text in _legend_entries():
         draw.rectangle([round(x), y, round(x) + 13, y + 13], fill=color)
         draw.text((x + 20, y - 1), text, fill=HEAD_TEXT, font=font)
-        x += 14 + 6 + media.text_length(text, font) + 22
+        x += _legend_step(text)
 
 
 _PAGE = """<!doctype html>
